@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Set up StoryBeam on a fresh Debian machine (Python 3.11, root, no display, no GPU).
+# Safe to run twice: apt and pip skip what is already there.
+#   - system packages: Mesa EGL/OSMesa for headless pyrender and Kivy, ffmpeg-free MP4 via
+#     imageio-ffmpeg's bundled binary, Xvfb for optional UI runs;
+#   - a virtual environment in .venv with the project installed (editable) plus dev tools.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+APT_PACKAGES="libegl1 libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri libopengl0 libosmesa6 libgles2 xvfb xauth libmtdev1"
+
+missing=""
+for p in $APT_PACKAGES; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+done
+if [ -n "$missing" ]; then
+  echo "[setup] installing system packages:$missing"
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $missing
+fi
+
+PY=${PYTHON:-python3.11}
+command -v "$PY" >/dev/null || PY=python3
+if [ ! -x .venv/bin/python ]; then
+  echo "[setup] creating .venv with $PY"
+  "$PY" -m venv .venv
+fi
+stamp=.venv/.storybeam-installed
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
+  echo "[setup] installing Python packages into .venv"
+  .venv/bin/python -m pip install -q --upgrade pip
+  .venv/bin/python -m pip install -q -e ".[dev]"
+  touch "$stamp"
+fi
+echo "[setup] ready: $(.venv/bin/python --version)"
