@@ -1,0 +1,272 @@
+"""Printable calibration/tracking boards: spec strings, detection, drawing and printing.
+
+Spec strings (lengths in metres):
+
+* ``charuco:5x7:0.04:0.02:DICT_6X6_250`` -- ChArUco board of 5 x 7 *squares*, square
+  side 0.04 m, marker side 0.02 m, ArUco dictionary (the default board).
+* ``grid:4x5:0.04:0.01:DICT_4X4_50`` -- ArUco grid of 4 x 5 *markers*, marker side
+  0.04 m, gap between markers 0.01 m.
+* ``checker:9x6:0.025`` -- plain checkerboard given by its *inner corners* (OpenCV's
+  ``patternSize`` convention): 9 x 6 inner corners = 10 x 7 squares of 0.025 m.
+
+Board frame (shared by every module in ``ar/``): the origin is the top-left outer corner
+of the pattern as printed (page upright), +x runs to the right along the first row,
++y runs down the page, and therefore +z = x cross y points *into* the table. "Up off
+the table" is -z. (This is OpenCV's own object-point convention; see
+:mod:`ar.projector_view` for the Y-up scene frame used for 3-D content.)
+
+A board knows its pattern extent (``pattern_size_m``) and the white paper margin around
+it; :meth:`Board.texture` draws the whole sheet at a chosen pixels-per-metre so the
+synthetic camera can warp it exactly, and :func:`write_board` prints it at true size.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ar.errors import BoardSpecError
+
+DEFAULT_BOARD_SPEC = "charuco:5x7:0.04:0.02:DICT_6X6_250"
+BOARD_KINDS = ("charuco", "grid", "checker")
+
+
+@dataclass(frozen=True)
+class BoardSpec:
+    """Parsed board spec; ``cols x rows`` are squares (charuco), markers (grid) or inner corners (checker)."""
+
+    kind: str
+    cols: int
+    rows: int
+    square_m: float  # charuco/checker: square side; grid: marker side
+    marker_m: float = 0.0  # charuco: marker side; grid: gap between markers; checker: unused
+    dictionary: str = ""
+
+    @classmethod
+    def parse(cls, text: str) -> "BoardSpec":
+        """Parse a spec string; raises :class:`BoardSpecError` naming the problem."""
+        parts = text.strip().split(":")
+        kind = parts[0].lower()
+        if kind not in BOARD_KINDS:
+            raise BoardSpecError(f"board spec {text!r}: unknown kind {parts[0]!r} (expected one of {', '.join(BOARD_KINDS)})")
+        expected = 3 if kind == "checker" else 5
+        if len(parts) != expected:
+            example = {"charuco": DEFAULT_BOARD_SPEC, "grid": "grid:4x5:0.04:0.01:DICT_4X4_50", "checker": "checker:9x6:0.025"}[kind]
+            raise BoardSpecError(f"board spec {text!r}: expected {expected} ':'-separated fields, like {example!r}")
+        try:
+            cols_s, rows_s = parts[1].lower().split("x")
+            cols, rows = int(cols_s), int(rows_s)
+        except ValueError:
+            raise BoardSpecError(f"board spec {text!r}: size {parts[1]!r} must look like 5x7") from None
+        try:
+            lengths = [float(p) for p in parts[2:4]]
+        except ValueError:
+            raise BoardSpecError(f"board spec {text!r}: lengths must be numbers in metres") from None
+        if min(cols, rows) < 2:
+            raise BoardSpecError(f"board spec {text!r}: need at least 2x2, got {cols}x{rows}")
+        if not all(np.isfinite(v) and 0 < v < 1.0 for v in lengths):
+            raise BoardSpecError(f"board spec {text!r}: lengths must be in metres, between 0 and 1")
+        dictionary = ""
+        if kind != "checker":
+            dictionary = parts[4].upper()
+            if not dictionary.startswith("DICT_") or not hasattr(cv2.aruco, dictionary):
+                raise BoardSpecError(f"board spec {text!r}: unknown ArUco dictionary {parts[4]!r}")
+        if kind == "charuco" and lengths[1] >= lengths[0]:
+            raise BoardSpecError(f"board spec {text!r}: marker ({lengths[1]}) must be smaller than square ({lengths[0]})")
+        return cls(kind, cols, rows, lengths[0], lengths[1] if kind != "checker" else 0.0, dictionary)
+
+    def __str__(self) -> str:
+        if self.kind == "checker":
+            return f"checker:{self.cols}x{self.rows}:{self.square_m:g}"
+        return f"{self.kind}:{self.cols}x{self.rows}:{self.square_m:g}:{self.marker_m:g}:{self.dictionary}"
+
+
+@dataclass
+class BoardDetection:
+    """Matched board points in one image: ``object_points`` (N,3) metres, ``image_points`` (N,2) px."""
+
+    object_points: np.ndarray
+    image_points: np.ndarray
+    ids: np.ndarray  # (N,) point ids (charuco corner ids, marker-corner ids, checker corner index)
+    total_points: int  # points on the whole board (so callers can judge partial views)
+
+    @property
+    def n(self) -> int:
+        return int(len(self.image_points))
+
+
+class Board:
+    """One physical board: geometry, detection in an image, and drawing of its sheet."""
+
+    def __init__(self, spec: BoardSpec | str):
+        self.spec = BoardSpec.parse(spec) if isinstance(spec, str) else spec
+        s = self.spec
+        if s.kind == "checker":
+            self._cv_board = None
+            xs, ys = np.meshgrid(np.arange(1, s.cols + 1), np.arange(1, s.rows + 1))
+            self.all_object_points = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], 1) * s.square_m
+            self.pattern_size_m = ((s.cols + 1) * s.square_m, (s.rows + 1) * s.square_m)
+        else:
+            dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, s.dictionary))
+            if s.kind == "charuco":
+                n_markers = (s.cols * s.rows) // 2
+                board = cv2.aruco.CharucoBoard((s.cols, s.rows), s.square_m, s.marker_m, dictionary)
+                self.all_object_points = np.asarray(board.getChessboardCorners(), np.float64).reshape(-1, 3)
+                self.pattern_size_m = (s.cols * s.square_m, s.rows * s.square_m)
+                self._detector = cv2.aruco.CharucoDetector(board)
+            else:
+                n_markers = s.cols * s.rows
+                board = cv2.aruco.GridBoard((s.cols, s.rows), s.square_m, s.marker_m, dictionary)
+                self.all_object_points = np.asarray(board.getObjPoints(), np.float64).reshape(-1, 3)
+                self.pattern_size_m = (s.cols * s.square_m + (s.cols - 1) * s.marker_m,
+                                       s.rows * s.square_m + (s.rows - 1) * s.marker_m)
+                params = cv2.aruco.DetectorParameters()
+                params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+                self._detector = cv2.aruco.ArucoDetector(dictionary, params)
+            if n_markers > dictionary.bytesList.shape[0]:
+                raise BoardSpecError(f"board spec {self.spec}: needs {n_markers} markers, {s.dictionary} has only {dictionary.bytesList.shape[0]}")
+            self._cv_board = board
+        #: white paper around the pattern; checkerboards need a quiet zone of one square.
+        self.margin_m = max(s.square_m, 0.01)
+
+    # ----------------------------------------------------------------- geometry
+    @property
+    def centre(self) -> np.ndarray:
+        """Centre of the pattern in the board frame (metres)."""
+        return np.array([self.pattern_size_m[0] / 2, self.pattern_size_m[1] / 2, 0.0])
+
+    @property
+    def sheet_size_m(self) -> tuple[float, float]:
+        """Printed sheet extent: pattern plus margin on every side."""
+        return (self.pattern_size_m[0] + 2 * self.margin_m, self.pattern_size_m[1] + 2 * self.margin_m)
+
+    # ----------------------------------------------------------------- detection
+    def detect(self, image: np.ndarray) -> BoardDetection | None:
+        """Find the board in a camera image (grey or BGR); ``None`` when not (reliably) found.
+
+        The checkerboard has no IDs, so only a complete view is accepted: a partial
+        pattern cannot be assigned to the right corners and would be mis-posed.
+        """
+        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        kind = self.spec.kind
+        total = len(self.all_object_points)
+        if kind == "checker":
+            flags = cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
+            found, corners = cv2.findChessboardCornersSB(gray, (self.spec.cols, self.spec.rows), flags=flags)
+            if not found or corners is None or len(corners) != total:
+                return None
+            img = corners.reshape(-1, 2).astype(np.float64)
+            img = self._orient_checker(gray, img)
+            return BoardDetection(self.all_object_points.copy(), img, np.arange(total), total)
+        if kind == "charuco":
+            cc, cids, _mc, _mids = self._detector.detectBoard(gray)
+            if cids is None or len(cids) < 4:
+                return None
+            cc = np.asarray(cc, np.float32).reshape(-1, 1, 2)
+            cids = np.asarray(cids, np.int32).reshape(-1, 1)
+            obj, img = self._cv_board.matchImagePoints(cc, cids)
+            return BoardDetection(np.asarray(obj, np.float64).reshape(-1, 3), np.asarray(img, np.float64).reshape(-1, 2),
+                                  cids.ravel(), total)
+        corners, ids, _rej = self._detector.detectMarkers(gray)
+        if ids is None or len(ids) < 1:
+            return None
+        obj, img = self._cv_board.matchImagePoints(corners, ids)
+        if obj is None or len(obj) < 4:
+            return None
+        point_ids = (np.repeat(ids.ravel() * 4, 4) + np.tile(np.arange(4), len(ids)))
+        return BoardDetection(np.asarray(obj, np.float64).reshape(-1, 3), np.asarray(img, np.float64).reshape(-1, 2),
+                              point_ids, total)
+
+    def _orient_checker(self, gray: np.ndarray, img: np.ndarray) -> np.ndarray:
+        """Resolve the checkerboard's 180-degree ambiguity so corner 0 is the printed top-left.
+
+        findChessboardCornersSB may list the corners from either end. The printed square
+        diagonally outside corner 0 is black and its neighbour along +x is white; sample
+        both through the corner homography and reverse the order when they disagree.
+        With inner-corner counts whose sum is even the board is 180-degree symmetric and
+        the ambiguity cannot be resolved (the CLI warns about such specs).
+        """
+        s = self.spec.square_m
+        H, _ = cv2.findHomography(self.all_object_points[:, :2], img)
+        if H is None:
+            return img
+        probes = np.array([[[0.5 * s, 0.5 * s]], [[1.5 * s, 0.5 * s]]])
+        pts = cv2.perspectiveTransform(probes, H).reshape(-1, 2)
+        h, w = gray.shape
+        vals = []
+        for x, y in pts:
+            xi, yi = int(round(x)), int(round(y))
+            if not (1 <= xi < w - 1 and 1 <= yi < h - 1):
+                return img
+            vals.append(float(gray[yi - 1:yi + 2, xi - 1:xi + 2].mean()))
+        return img[::-1].copy() if vals[0] > vals[1] else img
+
+    # ----------------------------------------------------------------- drawing
+    def texture(self, px_per_m: float) -> tuple[np.ndarray, float]:
+        """Draw the whole sheet (pattern + white margin), grey uint8, top-left = sheet corner.
+
+        Returns the image and the exact pixels-per-metre used (rounded so a square is a
+        whole number of pixels, which keeps marker cells crisp). Pixel (u, v) covers board
+        point ((u + 0.5) / ppm - margin, (v + 0.5) / ppm - margin).
+        """
+        s = self.spec
+        cell = s.square_m
+        px_square = max(8, int(round(cell * px_per_m)))
+        if s.kind == "charuco":  # make the marker's bit cells integral too
+            bits = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, s.dictionary)).markerSize + 2
+            px_marker = max(bits, int(round(s.marker_m / cell * px_square / bits)) * bits)
+            px_square = int(round(px_marker * cell / s.marker_m))
+        ppm = px_square / cell
+        margin_px = int(round(self.margin_m * ppm))
+        w = int(round(self.pattern_size_m[0] * ppm))
+        h = int(round(self.pattern_size_m[1] * ppm))
+        if s.kind == "checker":
+            ys, xs = np.mgrid[0:h, 0:w]
+            pattern = np.where(((xs // px_square) + (ys // px_square)) % 2 == 0, 0, 255).astype(np.uint8)
+        elif s.kind == "charuco":
+            pattern = self._cv_board.generateImage((w, h), marginSize=0, borderBits=1)
+        else:
+            pattern = self._cv_board.generateImage((w, h), marginSize=0, borderBits=1)
+        sheet = np.full((h + 2 * margin_px, w + 2 * margin_px), 255, np.uint8)
+        sheet[margin_px:margin_px + h, margin_px:margin_px + w] = pattern
+        # the margin was rounded to whole pixels: report it exactly
+        self.margin_m = margin_px / ppm
+        return sheet, ppm
+
+
+def write_board(board: Board, out: str | Path, dpi: int = 300) -> Path:
+    """Write the board sheet to print at true size: PNG with DPI metadata, or a PDF page.
+
+    The PDF page is exactly the sheet size (pattern + margin); print at 100 % / "actual
+    size" and check one square with a ruler.
+    """
+    out = Path(out)
+    ppm = dpi / 0.0254
+    sheet, ppm = board.texture(ppm)
+    true_dpi = ppm * 0.0254
+    suffix = out.suffix.lower()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".png":
+        from PIL import Image
+
+        Image.fromarray(sheet).save(out, dpi=(true_dpi, true_dpi))
+    elif suffix == ".pdf":
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        w_in = sheet.shape[1] / true_dpi
+        h_in = sheet.shape[0] / true_dpi
+        fig = plt.figure(figsize=(w_in, h_in))
+        ax = fig.add_axes((0, 0, 1, 1))
+        ax.imshow(sheet, cmap="gray", vmin=0, vmax=255, interpolation="nearest")
+        ax.set_axis_off()
+        fig.text(0.01, 0.002, f"StoryBeam {board.spec}  square {board.spec.square_m * 1000:g} mm", fontsize=5, color="0.5")
+        fig.savefig(out, dpi=true_dpi)
+        plt.close(fig)
+    else:
+        raise BoardSpecError(f"{out}: board output must be .png or .pdf")
+    return out

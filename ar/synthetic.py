@@ -1,0 +1,278 @@
+"""Synthetic camera test bench: exact renders of the board on a table, with known truth.
+
+Why exact warps instead of a 3-D renderer: the board and the table are one plane, so
+every camera pixel maps to one plane point through a ray-plane intersection. We
+precompute each (supersampled) pixel's undistorted ray once per camera
+(``cv2.undistortPoints`` with a tight iteration criterion), then per frame intersect the rays with the plane, look up
+the sheet/table textures with ``cv2.remap`` and area-average down to the output size.
+Lens distortion is therefore applied exactly (by remapping), edges are anti-aliased,
+and a frame costs tens of milliseconds on a CPU -- no GPU, no rasteriser error.
+
+Projector light is cast the same way: each plane point is projected into the projector
+(pinhole ``K_p``, pose ``T_proj_from_board``) and the projector image is sampled there,
+so the camera sees ``albedo * (ambient + gain * projector_rgb)``.
+
+Degradations (noise, blur, low light, a lighting gradient, a hand-like occluding blob)
+are applied after the geometric render. :func:`handheld_trajectory` produces a smooth
+wander plus physiological tremor, like a rig held over a table.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ar.boards import Board
+from ar.geometry import invert, look_at, make_transform, project_points
+
+
+@dataclass
+class PinholeModel:
+    """Intrinsics of a camera or projector (OpenCV convention, pixel centres at integers)."""
+
+    K: np.ndarray
+    dist: np.ndarray
+    width: int
+    height: int
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return (self.width, self.height)
+
+
+def default_camera() -> PinholeModel:
+    """The bench camera: 800x600, about 60 degrees horizontal field of view, mild barrel distortion."""
+    K = np.array([[700.0, 0.0, 402.3], [0.0, 700.0, 297.8], [0.0, 0.0, 1.0]])
+    return PinholeModel(K, np.array([-0.08, 0.02, 0.0005, -0.0003, 0.0]), 800, 600)
+
+
+def default_projector() -> PinholeModel:
+    """The bench projector: 1024x768, throw ratio about 1.3, no distortion."""
+    K = np.array([[1300.0, 0.0, 511.5], [0.0, 1300.0, 383.5], [0.0, 0.0, 1.0]])
+    return PinholeModel(K, np.zeros(5), 1024, 768)
+
+
+def default_proj_from_cam() -> np.ndarray:
+    """The bench rig: projector 6 cm right of and 1 cm below the camera, toed in to meet at 0.6 m."""
+    return look_at(np.array([0.06, 0.01, 0.0]), np.array([0.0, 0.0, 0.6]), np.array([0.0, -1.0, 0.0]))
+
+
+@dataclass
+class Degradation:
+    """Image degradations applied after the geometric render."""
+
+    noise_sigma: float = 1.0  # Gaussian read noise, grey levels
+    blur_sigma: float = 0.0  # Gaussian blur, pixels (defocus / motion)
+    exposure: float = 1.0  # overall light level (low light: 0.15-0.25)
+    gradient: float = 0.0  # fraction of left-to-right lighting fall-off
+    occlusion: float = 0.0  # fraction of the board's image area covered by a hand-like blob
+    shot_noise: float = 0.0  # Poisson-like noise scale (grows in low light)
+
+
+def _smooth_noise(shape: tuple[int, int], scale: int, rng: np.random.Generator) -> np.ndarray:
+    small = rng.random((max(2, shape[0] // scale), max(2, shape[1] // scale))).astype(np.float32)
+    return cv2.resize(small, (shape[1], shape[0]), interpolation=cv2.INTER_CUBIC)
+
+
+def make_table_texture(size_m: float = 2.4, px_per_m: float = 800.0, seed: int = 7) -> tuple[np.ndarray, float]:
+    """A wood-like table top (BGR float32 albedo in 0..1), centred on the board frame origin region."""
+    rng = np.random.default_rng(seed)
+    n = int(size_m * px_per_m)
+    ys, xs = np.mgrid[0:n, 0:n].astype(np.float32)
+    warp = _smooth_noise((n, n), 200, rng) * 40.0
+    grain = 0.5 + 0.5 * np.sin((ys + warp) / 9.0 + 3.0 * _smooth_noise((n, n), 60, rng))
+    fine = _smooth_noise((n, n), 4, rng)
+    base = 0.35 + 0.12 * grain + 0.05 * fine
+    tex = np.stack([base * 0.55, base * 0.8, base * 1.1], -1)  # BGR, warm brown
+    return np.clip(tex, 0, 1).astype(np.float32), px_per_m
+
+
+class SyntheticCamera:
+    """Renders what the rig's camera sees for a given board pose (and projector image)."""
+
+    def __init__(self, board: Board, camera: PinholeModel | None = None, supersample: int = 2,
+                 projector: PinholeModel | None = None, proj_from_cam: np.ndarray | None = None,
+                 board_px_per_m: float = 4000.0, ambient: float = 0.85, projector_gain: float = 0.9):
+        self.board = board
+        self.camera = camera or default_camera()
+        self.projector = projector or default_projector()
+        self.proj_from_cam = default_proj_from_cam() if proj_from_cam is None else proj_from_cam
+        self.ss = int(supersample)
+        self.ambient = ambient
+        self.projector_gain = projector_gain
+        sheet, self.sheet_ppm = board.texture(board_px_per_m)
+        self.sheet = (0.04 + 0.88 * sheet.astype(np.float32) / 255.0)  # ink and paper albedo
+        self.table, self.table_ppm = make_table_texture()
+        # table texture centred on the board centre
+        self.table_origin = board.centre[:2] - self.table.shape[0] / self.table_ppm / 2
+        w, h = self.camera.width * self.ss, self.camera.height * self.ss
+        us, vs = np.meshgrid((np.arange(w) + 0.5) / self.ss - 0.5, (np.arange(h) + 0.5) / self.ss - 0.5)
+        pix = np.stack([us, vs], -1).reshape(-1, 1, 2).astype(np.float64)
+        crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)
+        norm = cv2.undistortPoints(pix, self.camera.K, self.camera.dist, None, None, None, crit).reshape(h, w, 2)
+        self._rays = norm.astype(np.float32)
+
+    # ------------------------------------------------------------------ geometry
+    def plane_points(self, T_cam_from_board: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Board-plane (x, y) of every supersampled pixel's ray, and a mask of valid hits."""
+        T = invert(T_cam_from_board)
+        R = T[:3, :3].astype(np.float32)
+        o = T[:3, 3].astype(np.float32)
+        xn, yn = self._rays[..., 0], self._rays[..., 1]
+        dx = R[0, 0] * xn + R[0, 1] * yn + R[0, 2]
+        dy = R[1, 0] * xn + R[1, 1] * yn + R[1, 2]
+        dz = R[2, 0] * xn + R[2, 1] * yn + R[2, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = -o[2] / dz
+        valid = s > 0
+        px = o[0] + s * dx
+        py = o[1] + s * dy
+        return px, py, valid
+
+    def render(self, T_cam_from_board: np.ndarray, projector_image: np.ndarray | None = None,
+               degradation: Degradation | None = None, rng: np.random.Generator | None = None) -> np.ndarray:
+        """BGR uint8 camera frame of the table, board and (optional) projector light."""
+        deg = degradation or Degradation()
+        rng = rng or np.random.default_rng(0)
+        px, py, valid = self.plane_points(T_cam_from_board)
+        m = self.board.margin_m
+        su = ((px + m) * self.sheet_ppm - 0.5).astype(np.float32)
+        sv = ((py + m) * self.sheet_ppm - 0.5).astype(np.float32)
+        sheet = cv2.remap(self.sheet, su, sv, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=-1.0)
+        tu = ((px - self.table_origin[0]) * self.table_ppm - 0.5).astype(np.float32)
+        tv = ((py - self.table_origin[1]) * self.table_ppm - 0.5).astype(np.float32)
+        table = cv2.remap(self.table, tu, tv, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+        on_sheet = sheet >= 0
+        albedo = np.where(on_sheet[..., None], np.repeat(sheet[..., None], 3, -1), table)
+        light = np.full(px.shape, self.ambient, np.float32)
+        if deg.gradient:
+            ramp = np.linspace(1.0, 1.0 - deg.gradient, px.shape[1], dtype=np.float32)
+            light *= ramp[None, :]
+        light = light[..., None]
+        if projector_image is not None:
+            light = light + self.projector_gain * self._projector_light(T_cam_from_board, px, py, projector_image)
+        img = albedo * light * deg.exposure
+        img[~valid] = 0
+        img = cv2.resize(img, self.camera.size, interpolation=cv2.INTER_AREA) if self.ss > 1 else img
+        img = img * 255.0
+        if deg.occlusion > 0:
+            img = self._occlude(img, T_cam_from_board, deg.occlusion, rng, deg.exposure)
+        if deg.blur_sigma > 0:
+            img = cv2.GaussianBlur(img, (0, 0), deg.blur_sigma)
+        if deg.shot_noise > 0:
+            img = img + rng.normal(0, 1, img.shape).astype(np.float32) * np.sqrt(np.maximum(img, 0) * deg.shot_noise)
+        if deg.noise_sigma > 0:
+            img = img + rng.normal(0, deg.noise_sigma, img.shape).astype(np.float32)
+        return np.clip(img + 0.5, 0, 255).astype(np.uint8)
+
+    def _projector_light(self, T_cam_from_board: np.ndarray, px: np.ndarray, py: np.ndarray,
+                         projector_image: np.ndarray) -> np.ndarray:
+        """Projector radiance arriving at each plane point (H, W, 3) in 0..1."""
+        T = self.proj_from_cam @ T_cam_from_board  # T_proj_from_board
+        R, t = T[:3, :3].astype(np.float32), T[:3, 3].astype(np.float32)
+        X = R[0, 0] * px + R[0, 1] * py + t[0]
+        Y = R[1, 0] * px + R[1, 1] * py + t[1]
+        Z = R[2, 0] * px + R[2, 1] * py + t[2]
+        K = self.projector.K
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = (K[0, 0] * X / Z + K[0, 2]).astype(np.float32)
+            v = (K[1, 1] * Y / Z + K[1, 2]).astype(np.float32)
+        u[~(Z > 0)] = -10
+        pimg = projector_image.astype(np.float32) / 255.0
+        if pimg.ndim == 2:
+            pimg = np.repeat(pimg[..., None], 3, -1)
+        return cv2.remap(pimg, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+    def _occlude(self, img: np.ndarray, T_cam_from_board: np.ndarray, fraction: float,
+                 rng: np.random.Generator, exposure: float) -> np.ndarray:
+        """Cover about ``fraction`` of the board's image area with a hand-like blob (palm + fingers)."""
+        w, h = self.board.pattern_size_m
+        quad = project_points(np.array([[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0]]), T_cam_from_board,
+                              self.camera.K, self.camera.dist).astype(np.float32)
+        board_mask = np.zeros(img.shape[:2], np.uint8)
+        cv2.fillConvexPoly(board_mask, np.round(quad).astype(np.int32), 1)
+        board_area = max(1, int(board_mask.sum()))
+        # enter from a random side of the board, palm centred near that edge
+        edge = int(rng.integers(4))
+        a, b = quad[edge], quad[(edge + 1) % 4]
+        centre_q = quad.mean(0)
+        along = rng.uniform(0.3, 0.7)
+        anchor = a + along * (b - a)
+        inward = centre_q - anchor
+        inward /= np.linalg.norm(inward) + 1e-9
+        angle = np.degrees(np.arctan2(inward[1], inward[0]))
+        scale = np.sqrt(fraction * board_area / 2.2)
+        for _ in range(3):  # adjust the scale until the covered fraction is close
+            mask = np.zeros_like(board_mask)
+            palm = anchor + inward * scale * 0.6
+            cv2.ellipse(mask, (int(palm[0]), int(palm[1])), (int(scale * 0.75), int(scale * 0.6)), angle, 0, 360, 1, -1)
+            for k, off in enumerate((-0.45, -0.15, 0.15, 0.45)):
+                side = np.array([-inward[1], inward[0]])
+                base = palm + inward * scale * 0.5 + side * scale * off
+                tip = base + inward * scale * (0.7 + 0.15 * (k in (1, 2)))
+                cv2.line(mask, (int(base[0]), int(base[1])), (int(tip[0]), int(tip[1])), 1, max(2, int(scale * 0.22)))
+            wrist = anchor - inward * scale * 2.0
+            cv2.line(mask, (int(palm[0]), int(palm[1])), (int(wrist[0]), int(wrist[1])), 1, int(scale * 1.1))
+            covered = (mask & board_mask).sum() / board_area
+            if covered <= 0:
+                break
+            scale *= float(np.sqrt(fraction / covered))
+        mask_f = cv2.GaussianBlur(mask.astype(np.float32), (0, 0), 1.0)[..., None]
+        skin = np.array([120.0, 150.0, 200.0], np.float32) * exposure * (0.9 + 0.2 * _smooth_noise(img.shape[:2], 40, rng))[..., None]
+        return img * (1 - mask_f) + skin * mask_f
+
+
+# ---------------------------------------------------------------------- trajectories
+@dataclass
+class TrajectoryConfig:
+    """A handheld path: where the rig hovers and how much it wanders and trembles."""
+
+    distance_m: float = 0.5
+    tilt_deg: float = 25.0  # angle between the view direction and the table normal
+    fps: float = 30.0
+    wander_deg: float = 3.0  # slow angular wander amplitude
+    wander_m: float = 0.015  # slow positional wander amplitude
+    tremor_deg: float = 0.06  # 8-12 Hz physiological tremor, rotation
+    tremor_m: float = 0.0004  # tremor, translation
+    seed: int = 0
+    extra: dict = field(default_factory=dict)
+
+
+def _wander(t: np.ndarray, rng: np.random.Generator, freqs: tuple[float, float]) -> np.ndarray:
+    """Sum of three sinusoids with random frequencies and phases, unit amplitude."""
+    out = np.zeros_like(t)
+    for _ in range(3):
+        f = rng.uniform(*freqs)
+        out += np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi))
+    return out / 3.0
+
+
+def handheld_trajectory(board: Board, n_frames: int, cfg: TrajectoryConfig | None = None) -> list[np.ndarray]:
+    """``T_cam_from_board`` for ``n_frames`` of a rig held over the board.
+
+    The camera sits on the board's +x side at ``tilt_deg`` from vertical, looking at the
+    board centre with the board's -x direction up in the image (so the long side of a
+    portrait board runs along the image's long side). Slow wander (0.05-0.4 Hz) moves
+    the view point and aim; tremor (8-12 Hz) adds small fast shakes.
+    """
+    cfg = cfg or TrajectoryConfig()
+    rng = np.random.default_rng(cfg.seed)
+    t = np.arange(n_frames) / cfg.fps
+    c = board.centre
+    slow = {k: _wander(t, rng, (0.05, 0.4)) for k in ("tilt", "az", "dist", "ax", "ay", "roll")}
+    fast = {k: _wander(t, rng, (8.0, 12.0)) for k in ("rx", "ry", "rz", "tx", "ty", "tz")}
+    poses = []
+    for i in range(n_frames):
+        tilt = np.radians(cfg.tilt_deg + cfg.wander_deg * slow["tilt"][i])
+        az = np.radians(3 * cfg.wander_deg * slow["az"][i])
+        d = cfg.distance_m * (1 + 0.03 * slow["dist"][i])
+        eye = c + d * np.array([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), -np.cos(tilt)])
+        target = c + np.array([cfg.wander_m * slow["ax"][i], cfg.wander_m * slow["ay"][i], 0.0])
+        T = look_at(eye, target, np.array([-1.0, 0.0, 0.0]))
+        roll = np.radians(cfg.wander_deg * slow["roll"][i])
+        shake = np.radians(cfg.tremor_deg) * np.array([fast["rx"][i], fast["ry"][i], fast["rz"][i]])
+        R_extra, _ = cv2.Rodrigues(shake + np.array([0, 0, roll]))
+        dt = cfg.tremor_m * np.array([fast["tx"][i], fast["ty"][i], fast["tz"][i]])
+        poses.append(make_transform(R_extra, dt) @ T)
+    return poses
