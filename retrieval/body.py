@@ -48,6 +48,9 @@ _CENTRE_PARTS: dict[str, tuple[str, ...]] = {
     "neck": ("neck", "lowerneck", "necktwist0*1", "neck0*1", "upperneck"),
     "head": ("head",),
 }
+# The pelvis joint, when the root is something else (Character Creator's ``RL_BoneRoot``
+# sits on the floor with ``CC_Base_Hip`` below it); Acclaim's ``root`` is the pelvis.
+_HIPS_PATTERNS: tuple[str, ...] = ("hips?", "pelvis")
 # Acclaim-style names glue the side letter to a known body word: "lfemur", "rtoes".
 _GLUED_SIDE = re.compile(
     r"^([lr])(hipjoint|femur|tibia|foot|toes|clavicle|humerus|radius|wrist|hand|fingers|thumb)$"
@@ -84,11 +87,12 @@ def split_side(name: str) -> tuple[str | None, str]:
 def canonical_joint_map(skeleton: Skeleton, required: bool = True) -> dict[str, int]:
     """Canonical joint name -> joint index in ``skeleton``.
 
-    ``hips`` is always the root. Raises :class:`JointMapError` naming the missing parts
+    ``hips`` is the first centre joint named like a hip/pelvis (``Hips``,
+    ``CC_Base_Hip``), else the root. Raises :class:`JointMapError` naming the missing parts
     when ``required`` and some canonical joint has no match.
     """
     parsed = [split_side(j.name) for j in skeleton.joints]
-    found: dict[str, int] = {"hips": 0}
+    found: dict[str, int] = {}
 
     def first(side: str | None, patterns: tuple[str, ...]) -> int | None:
         for pat in patterns:
@@ -98,6 +102,8 @@ def canonical_joint_map(skeleton: Skeleton, required: bool = True) -> dict[str, 
                     return i
         return None
 
+    hips = first(None, _HIPS_PATTERNS)
+    found["hips"] = 0 if hips is None else hips
     for part, pats in _CENTRE_PARTS.items():
         i = first(None, pats)
         if i is not None:
