@@ -15,8 +15,8 @@ tall they are or which skeleton recorded them:
  4  elbow_elbow             arm opening even when the hands are close to the body
  5  lhand_head              hand raised to / above the head (dance, reach)
  6  rhand_head              (mirror of 5)
- 7  lhand_lhip              arm swing forward/back relative to the body (walk, run)
- 8  rhand_rhip              (mirror of 7)
+ 7  lhand_rshoulder         arm swing across / away from the body (walk, run, dance)
+ 8  rhand_lshoulder         (mirror of 7)
  9  lankle_lhip             leg extension = knee bend (crouch before a jump, running)
 10  rankle_rhip             (mirror of 9)
 11  lhand_lshoulder         arm extension = elbow bend (punch-like dance moves, running)
@@ -24,15 +24,23 @@ tall they are or which skeleton recorded them:
 13  lankle_height           left foot above the floor: kick, step phase, flight
 14  rankle_height           (mirror of 13)
 15  hips_height             root above the floor: crouch, jump flight, standing
-16  lhand_above_hips        signed hand height over the hips: arms up vs down
-17  rhand_above_hips        (mirror of 16)
+16  lhand_above_head        signed hand height over the head: arms raised vs down
+17  rhand_above_head        (mirror of 16)
 ==  ======================  ==========================================================
 
 Pairs 1–12 are 3-D Euclidean distances, hence invariant to the body's position and heading.
 Heights 13–15 are measured above the clip's *floor*: a low percentile of the lowest
 foot joint (ankle or toe) over the clip, so a jump's flight phase shows as the whole body
 rising, while the file's own ground offset (BVH converters shift it) cancels out.
-16–17 are signed vertical offsets (hand y minus hips y).
+16–17 are signed vertical offsets (hand y minus head y).
+
+No pair mixes an upper-body joint (neck, head, shoulders, elbows, hands) with a lower-body
+one (hips, legs, feet): skeletons disagree about the thorax. CMU's BVH conversions give
+``Neck`` a zero offset from ``Spine1``, which drops the thorax bone and moves the whole
+upper body about 12 cm down relative to the Acclaim original (measured on 01_01: every
+upper-body joint off by the thorax vector, every lower-body joint identical). A hand-to-hip
+distance would therefore change with the file format; hand-to-shoulder and hand-to-head
+distances do not.
 
 Every value is divided by the performer's *leg length* (hip→knee→ankle, both legs
 averaged) measured on the skeleton's rest pose: bone lengths do not depend on the rest
@@ -173,8 +181,8 @@ MR17 = FeatureSet(
         _d("elbow_elbow", "left_elbow", "right_elbow", "arm opening"),
         _d("lhand_head", "left_hand", "head", "hand raised to the head"),
         _d("rhand_head", "right_hand", "head", "hand raised to the head"),
-        _d("lhand_lhip", "left_hand", "left_hip", "arm swing relative to the body"),
-        _d("rhand_rhip", "right_hand", "right_hip", "arm swing relative to the body"),
+        _d("lhand_rshoulder", "left_hand", "right_shoulder", "arm swing across / away from the body"),
+        _d("rhand_lshoulder", "right_hand", "left_shoulder", "arm swing across / away from the body"),
         _d("lankle_lhip", "left_ankle", "left_hip", "leg extension (knee bend)"),
         _d("rankle_rhip", "right_ankle", "right_hip", "leg extension (knee bend)"),
         _d("lhand_lshoulder", "left_hand", "left_shoulder", "arm extension (elbow bend)"),
@@ -182,8 +190,8 @@ MR17 = FeatureSet(
         FeatureSpec("lankle_height", "height", ("left_ankle",), "foot off the floor: kick, step, flight"),
         FeatureSpec("rankle_height", "height", ("right_ankle",), "foot off the floor: kick, step, flight"),
         FeatureSpec("hips_height", "height", ("hips",), "crouch, jump flight"),
-        FeatureSpec("lhand_above_hips", "above", ("left_hand", "hips"), "arms up vs down"),
-        FeatureSpec("rhand_above_hips", "above", ("right_hand", "hips"), "arms up vs down"),
+        FeatureSpec("lhand_above_head", "above", ("left_hand", "head"), "arms raised vs down"),
+        FeatureSpec("rhand_above_head", "above", ("right_hand", "head"), "arms raised vs down"),
     ),
 )
 

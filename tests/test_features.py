@@ -26,8 +26,10 @@ def test_values_on_the_rest_like_first_frame():
     assert f[0, names.index("hand_hand")] == pytest.approx(0.36 / legs)
     assert f[0, names.index("ankle_ankle")] == pytest.approx(0.18 / legs)
     assert f[0, names.index("lankle_lhip")] == pytest.approx(0.82 / legs)
-    # hands 53 cm below the shoulder line, shoulders 40+10-5 = 45 cm above the hips
-    assert f[0, names.index("lhand_above_hips")] == pytest.approx((0.45 - 0.53) / legs)
+    # hands 53 cm below the shoulder line, head 5 + 10 cm above it
+    assert f[0, names.index("lhand_above_head")] == pytest.approx(-(0.53 + 0.15) / legs)
+    # left hand 36 cm across and 53 cm below the right shoulder
+    assert f[0, names.index("lhand_rshoulder")] == pytest.approx(np.hypot(0.36, 0.53) / legs)
 
 
 def test_invariant_to_body_size_heading_and_up_axis():
@@ -64,12 +66,13 @@ def test_same_trial_on_acclaim_and_cc_base_skeletons_gives_close_features(cmu_di
 
     amc = motion_io.load_motion(cmu_dir / "extra" / "01_01.amc", cmu_dir / "asf" / "01.asf")
     bvh = motion_io.load_motion(cmu_dir / "extra" / "01_01.bvh")
-    fps = 30.0
-    fa = motion_features(resample(amc, fps))
-    fb = motion_features(resample(bvh, fps))
-    # The BVH may start with a converter T-pose frame and differ by a frame or so in length:
-    # align by the best offset over a few frames, then compare.
+    fa = motion_features(resample(amc, 30.0))
+    fb = motion_features(resample(bvh, 30.0))
+    # The BVH may start with a converter T-pose frame: align by the best offset of a few
+    # frames, then compare every feature over the clip (the BVH drops the thorax bone,
+    # which moves the upper body; the features are chosen to be blind to that).
     n = min(len(fa), len(fb)) - 10
-    errs = [np.abs(fa[5:5 + n] - fb[5 + s:5 + s + n]).mean() for s in range(-5, 6)]
-    spread = fa.std(axis=0).mean()
-    assert min(errs) < 0.25 * spread, (min(errs), spread)
+    errs = [np.abs(fa[5:5 + n] - fb[5 + s:5 + s + n]).max(axis=0) for s in range(-5, 6)]
+    best = min(errs, key=lambda e: e.max())
+    spread = fa.std(axis=0)
+    assert np.all(best < 0.05 * spread), dict(zip(MR17.names, (best / spread).round(3)))
