@@ -38,7 +38,8 @@ def global_transforms(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
         p = joint.parent
         off = offsets[j] if jt is None else jt[:, j]
         rot[:, j] = rot[:, p] @ motion.rotations[:, j]
-        pos[:, j] = pos[:, p] + np.einsum("tab,...b->ta", rot[:, p], off)
+        # off is (3,) or, with per-frame joint translations, (T, 3): matmul broadcasts both.
+        pos[:, j] = pos[:, p] + (rot[:, p] @ off[..., None])[..., 0]
     return rot, pos
 
 
