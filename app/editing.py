@@ -179,8 +179,13 @@ class StoryEditor:
             scene.characters.remove(scene.character(character_id))
         self._execute("remove character", change)
 
-    def set_path(self, scene_id: str, character_id: str, path: list[tuple[float, float, float]]) -> None:
-        """Replace a character's path (table metres, seconds); marks past its end are dropped."""
+    def set_path(self, scene_id: str, character_id: str, path: list[tuple[float, float, float]],
+                 spins: list[float] | None = None) -> None:
+        """Replace a character's path (table metres, seconds) as one step.
+
+        ``spins`` (times found as loops in the same stroke) replace the old spin marks;
+        hops that still fall on the new path are kept.
+        """
         points = [_path_point(p, f"path[{i}]") for i, p in enumerate(path)]
         for i in range(1, len(points)):
             if points[i][2] < points[i - 1][2]:
@@ -190,7 +195,8 @@ class StoryEditor:
             character = s.scene(scene_id).character(character_id)
             character.path = points
             end = points[-1][2] if points else 0.0
-            character.marks = [m for m in character.marks if m.at <= end]
+            kept = [m for m in character.marks if m.at <= end and (spins is None or m.kind != "spin")]
+            character.marks = sorted(kept + [Mark("spin", float(t)) for t in (spins or [])], key=lambda m: m.at)
         self._execute("draw path", change)
 
     def set_motion(self, scene_id: str, character_id: str, motion_class: str, clip_id: str | None = None) -> None:

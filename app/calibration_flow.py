@@ -1,0 +1,87 @@
+"""The teacher's calibration wizard, as steps the UI runs one at a time.
+
+Kept free of Kivy so it can be tested and reused: each step is a title key (for the
+strings table), a short explanation key and a function that does the work (the UI runs
+it off the UI thread) and returns a one-line result. The work is done by ``ar/``:
+board detection and ``ar.calibration.calibrate_camera``. Without a camera (this
+development machine, a test) the capture step uses ``ar.synthetic.SyntheticCamera``
+so the whole chain still runs end to end.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from retrieval.errors import StoryBeamError
+
+
+@dataclass
+class CalibrationStep:
+    key: str  # identifies the step (and its explanation in the UI)
+    run: Callable[[], str]
+    result: str | None = None
+    error: str | None = None
+
+
+@dataclass
+class CalibrationWizard:
+    """Board -> capture views -> solve the camera -> save ``camera.json``."""
+
+    out_dir: Path
+    camera_index: int | None = None  # None: synthetic camera
+    n_views: int = 8
+    board_spec: str | None = None
+    steps: list[CalibrationStep] = field(default_factory=list)
+    current: int = 0
+
+    def __post_init__(self) -> None:
+        self._board = None
+        self._views: list = []
+        self._calibration = None
+        self.steps = [
+            CalibrationStep("board", self._make_board),
+            CalibrationStep("capture", self._capture),
+            CalibrationStep("solve", self._solve),
+            CalibrationStep("save", self._save),
+        ]
+
+    @property
+    def done(self) -> bool:
+        return self.current >= len(self.steps)
+
+    def run_next(self) -> CalibrationStep:
+        """Run the current step; on success move to the next. Errors are kept, not raised,
+        so the wizard can show them and let the teacher retry the same step."""
+        step = self.steps[self.current]
+        try:
+            step.result, step.error = step.run(), None
+            self.current += 1
+        except (StoryBeamError, ImportError, OSError, ValueError) as exc:
+            step.error = str(exc)
+        return step
+
+    def _make_board(self) -> str:
+        from ar.boards import DEFAULT_BOARD_SPEC, Board
+        self._board = Board(self.board_spec or DEFAULT_BOARD_SPEC)
+        return f"board {self._board.spec}"
+
+    def _capture(self) -> str:
+        if self.camera_index is not None:
+            from ar.calibration import capture_from_camera
+            self._views = capture_from_camera(self.camera_index, self.n_views, self._board)
+            return f"{len(self._views)} camera views"
+        from ar.synthetic import SyntheticCamera, calibration_poses
+        cam = SyntheticCamera(self._board, supersample=1)
+        self._views = [(f"synthetic_{i:02d}", cam.render(T)) for i, T in
+                       enumerate(calibration_poses(self._board, self.n_views))]
+        return f"{len(self._views)} synthetic views"
+
+    def _solve(self) -> str:
+        from ar.calibration import calibrate_camera
+        self._calibration = calibrate_camera(self._views, self._board)
+        return f"reprojection RMS {self._calibration.rms:.2f} px over {len(self._calibration.per_view_errors)} views"
+
+    def _save(self) -> str:
+        path = self._calibration.save(Path(self.out_dir) / "camera.json")
+        return str(path)

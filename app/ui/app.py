@@ -1,0 +1,229 @@
+"""The StoryBeam Kivy application: screens, the open story and its autosave.
+
+Import this module only after the Kivy environment is set (see
+:func:`app.ui.env.prepare_kivy_env`): Kivy reads its settings at import time.
+"""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Callable
+
+from kivy.app import App
+from kivy.clock import Clock
+from kivy.core.text import DEFAULT_FONT, LabelBase
+from kivy.metrics import dp
+from kivy.uix.boxlayout import BoxLayout
+from kivy.uix.modalview import ModalView
+from kivy.uix.screenmanager import NoTransition, ScreenManager
+
+from app.demo import demo_story
+from app.editing import StoryEditor
+from app.services import MotionCatalog
+from app.storage import ProfileStore, StorageError
+from app.story import Story
+from app.ui.editor import EditorScreen
+from app.ui.home import HomeScreen
+from app.ui.play import PlayScreen, ProjectorScreen
+from app.ui.strings import LANGUAGES, tr
+from app.ui.teacher import CalibrationScreen, PinScreen, TeacherScreen
+from app.ui.widgets import big_label, filled
+
+REPO_ROOT = Path(__file__).resolve().parent.parent.parent
+FONT_PATH = REPO_ROOT / "assets" / "fonts" / "Mplus1-Medium.otf"
+
+log = logging.getLogger(__name__)
+
+
+def register_fonts() -> None:
+    """Make the bundled M+ font (Latin + kana + kanji) the default for every label."""
+    if FONT_PATH.is_file():
+        LabelBase.register(DEFAULT_FONT, str(FONT_PATH))
+    else:  # still usable in English with Kivy's own Roboto
+        log.warning("font %s missing: Japanese text will not render", FONT_PATH)
+
+
+class StoryBeamApp(App):
+    """Holds the profile store, the open story's editor and the language."""
+
+    title = "StoryBeam"
+
+    def __init__(self, db_path: str | Path, lang: str | None = None, story_id: str | None = None,
+                 demo: bool = False, start_screen: str | None = None,
+                 catalog: MotionCatalog | None = None, renderer_factory: Callable | None = None, **kwargs):
+        super().__init__(**kwargs)
+        self.db_path = Path(db_path)
+        self.requested_lang = lang
+        self.requested_story = story_id
+        self.demo = demo
+        self.start_screen = start_screen
+        self.catalog = catalog if catalog is not None else MotionCatalog()
+        self.renderer_factory = renderer_factory
+        self.renderer = None
+        self.video_exporter = None
+        self.store: ProfileStore | None = None
+        self.storage_problem: str | None = None
+        self.editor: StoryEditor | None = None
+        self.current_scene_id: str | None = None
+        self.selected_character_id: str | None = None
+        self.teacher_unlocked = False
+        self.teacher_session_id: int | None = None
+        self.projector_return = "editor"
+        self.lang = "ja"
+
+    # -- set-up ---------------------------------------------------------------------
+    @property
+    def profile_dir(self) -> Path:
+        return self.db_path.parent
+
+    @property
+    def export_dir(self) -> Path:
+        return self.db_path.with_name(self.db_path.name + ".exports")
+
+    @property
+    def inbox_dir(self) -> Path:
+        return self.db_path.with_name(self.db_path.name + ".inbox")
+
+    def _open_store(self) -> None:
+        """Open the profile; if it is refused, keep the children working in a fresh
+        profile beside it and say so (the refused file is left untouched)."""
+        try:
+            self.store = ProfileStore(self.db_path)
+        except StorageError as exc:
+            self.storage_problem = str(exc)
+            log.error("%s", exc)
+            rescue = self.db_path.with_name(self.db_path.stem + ".recovered.db")
+            self.store = ProfileStore(rescue)
+            self.db_path = rescue
+
+    def build(self):
+        register_fonts()
+        self._open_store()
+        saved_lang = self.store.get_setting("language")
+        self.lang = self.requested_lang or (saved_lang if saved_lang in LANGUAGES else "ja")
+        if self.renderer_factory is not None:
+            from app.render_bridge import RenderThread
+            self.renderer = RenderThread(self.renderer_factory,
+                                         lambda cb, frame: Clock.schedule_once(lambda dt: cb(frame), 0))
+        self.sm = ScreenManager(transition=NoTransition())
+        for screen in (HomeScreen(name="home"), EditorScreen(name="editor"), PlayScreen(name="play"),
+                       ProjectorScreen(name="projector"), PinScreen(name="pin"), TeacherScreen(name="teacher"),
+                       CalibrationScreen(name="calibration")):
+            self.sm.add_widget(screen)
+        if self.demo:
+            story = demo_story()
+            if not self.store.has_story(story.id):
+                self.store.save_story(story)
+            self.requested_story = story.id
+        if self.requested_story:
+            self.open_story(self.requested_story, switch=False)
+            self.sm.current = self.start_screen or "editor"
+        elif self.start_screen in ("pin", "home"):
+            self.sm.current = self.start_screen
+        else:
+            self.sm.current = "home"
+        self.sm.current_screen.refresh() if hasattr(self.sm.current_screen, "refresh") else None
+        if self.storage_problem:
+            Clock.schedule_once(lambda dt: self.show_message(self.t("storage_problem", why=self.storage_problem)), 0)
+        return self.sm
+
+    def on_stop(self):
+        if self.renderer is not None:
+            self.renderer.stop()
+        if self.store is not None:
+            self.store.close()
+
+    # -- language -------------------------------------------------------------------
+    def t(self, key: str, **values: object) -> str:
+        return tr(key, self.lang, **values)
+
+    def toggle_language(self) -> None:
+        self.set_language("en" if self.lang == "ja" else "ja")
+
+    def set_language(self, lang: str) -> None:
+        self.lang = lang
+        self.store.set_setting("language", lang)
+        screen = self.sm.current_screen
+        if hasattr(screen, "refresh"):
+            screen.refresh()
+
+    # -- navigation -----------------------------------------------------------------
+    def go(self, name: str) -> None:
+        if name in ("editor", "play", "projector") and self.editor is None:
+            name = "home"
+        if name == "projector":
+            self.projector_return = self.sm.current if self.sm.current != "projector" else "editor"
+        self.sm.current = name
+
+    def go_home(self) -> None:
+        self.go("home")
+
+    def open_story(self, story_id: str, switch: bool = True) -> bool:
+        try:
+            story = self.store.load_story(story_id)
+        except StorageError as exc:
+            self.show_message(self.t("error", why=str(exc)))
+            return False
+        self._edit(story)
+        self.store.log_activity("open story", story.id)
+        if switch:
+            self.go("editor")
+        return True
+
+    def new_story(self, arc: str) -> Story:
+        story = Story.new(arc)
+        self.store.save_story(story)
+        self.store.log_activity("new story", story.id, arc)
+        self._edit(story)
+        self.go("editor")
+        return story
+
+    def _edit(self, story: Story) -> None:
+        self.editor = StoryEditor(story)
+        self.editor.add_listener(self._autosave)
+        self.current_scene_id = story.scenes[0].id if story.scenes else None
+        self.selected_character_id = None
+
+    def _autosave(self, story: Story, label: str) -> None:
+        """Every change is committed at once (see app.storage for why this is safe)."""
+        try:
+            self.store.save_story(story)
+            self.store.log_activity("edit", story.id, label)
+        except StorageError as exc:
+            self.show_message(self.t("error", why=str(exc)))
+
+    def present_all(self) -> None:
+        """Teacher: play every story on the projector one after another (newest last)."""
+        stories = []
+        for summary in reversed(self.store.list_stories()):
+            try:
+                stories.append(self.store.load_story(summary.id))
+            except StorageError:
+                continue
+        if not stories:
+            return
+        combined = Story(title="all", arc="free", scenes=[s for story in stories for s in story.scenes][:60])
+        self.editor = StoryEditor(combined)  # not autosaved: a read-only show
+        self.projector_return = "teacher"
+        self.sm.current = "projector"
+
+    # -- feedback and rendering -----------------------------------------------------
+    def show_message(self, text: str, seconds: float = 4.0) -> None:
+        view = ModalView(size_hint=(0.6, 0.3))
+        box = filled(BoxLayout(padding=dp(16)), (1, 0.95, 0.85, 1))
+        label = big_label(text, 20, size_hint_y=1)
+        label.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
+        label.halign, label.valign = "center", "middle"
+        box.add_widget(label)
+        view.add_widget(box)
+        view.open()
+        self.last_message = text
+        Clock.schedule_once(lambda dt: view.dismiss(), seconds)
+
+    def request_frame(self, scene, t: float, callback) -> None:
+        """Ask the 3-D renderer (if any) for a frame; the 2-D preview is always drawn."""
+        if self.renderer is not None and self.renderer.alive:
+            self.renderer.request(scene, t, callback)
+
+
+__all__ = ["StoryBeamApp", "register_fonts", "FONT_PATH"]

@@ -1,0 +1,299 @@
+"""Teacher mode behind a PIN: class sessions and group rosters, calibration wizard,
+presenting every story, exports (videos, story packages, activity-log CSV).
+
+Teacher screens may use text entry (session and group names); the children's flow never
+does."""
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+from kivy.app import App
+from kivy.clock import Clock
+from kivy.metrics import dp
+from kivy.uix.boxlayout import BoxLayout
+from kivy.uix.gridlayout import GridLayout
+from kivy.uix.label import Label
+from kivy.uix.screenmanager import Screen
+from kivy.uix.scrollview import ScrollView
+from kivy.uix.textinput import TextInput
+from kivy.uix.widget import Widget
+
+from app.calibration_flow import CalibrationWizard
+from app.storage import StorageError
+from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
+from retrieval.errors import StoryBeamError
+
+_STEP_TEXT = {
+    "board": {"en": "1. Put the printed board on the table", "ja": "1. いんさつした ボードを つくえに おく"},
+    "capture": {"en": "2. Capture views of the board", "ja": "2. ボードを いろいろな むきで うつす"},
+    "solve": {"en": "3. Compute the camera calibration", "ja": "3. カメラの けいさん"},
+    "save": {"en": "4. Save", "ja": "4. ほぞん"},
+}
+
+
+class PinScreen(Screen):
+    """A big number pad. The first time, the entered PIN becomes the teacher PIN."""
+
+    def on_pre_enter(self, *args):
+        self.entered = ""
+        self.refresh()
+
+    def refresh(self) -> None:
+        app = App.get_running_app()
+        t = app.t
+        self.clear_widgets()
+        root = filled(BoxLayout(orientation="vertical", padding=dp(24), spacing=dp(10)), (0.9, 0.93, 0.98, 1))
+        bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP))
+        bar.add_widget(IconButton("home", t("back"), on_press=app.go_home, size_hint_x=None, width=dp(100)))
+        bar.add_widget(big_label(t("enter_pin") if app.store.has_pin() else t("new_pin"), 26, size_hint_y=1))
+        root.add_widget(bar)
+        self.display = big_label("", 36)
+        self.message = big_label("", 18, colour=(0.8, 0.1, 0.1, 1))
+        root.add_widget(self.display)
+        root.add_widget(self.message)
+        pad = GridLayout(cols=3, spacing=dp(10), size_hint=(None, 1), width=dp(3 * 110))
+        self.keys = {}
+        for key in ("1", "2", "3", "4", "5", "6", "7", "8", "9", "clear", "0", "ok"):
+            label = t(key) if key in ("clear", "ok") else key
+            icon = {"clear": "delete", "ok": "play"}.get(key, "")
+            b = IconButton(icon, label, on_press=lambda k=key: self.press(k), font_size=dp(26))
+            self.keys[key] = b
+            pad.add_widget(b)
+        centre = BoxLayout()
+        centre.add_widget(Widget())
+        centre.add_widget(pad)
+        centre.add_widget(Widget())
+        root.add_widget(centre)
+        self.add_widget(root)
+
+    def press(self, key: str) -> None:
+        app = App.get_running_app()
+        if key == "clear":
+            self.entered = ""
+        elif key == "ok":
+            if not app.store.has_pin():
+                try:
+                    app.store.set_pin(self.entered)
+                except StorageError as exc:
+                    self.message.text = str(exc)
+                    self.entered = ""
+                    self.display.text = ""
+                    return
+            if app.store.verify_pin(self.entered):
+                app.teacher_unlocked = True
+                app.store.log_activity("teacher mode")
+                app.go("teacher")
+                return
+            self.message.text = app.t("wrong_pin")
+            self.entered = ""
+        elif len(self.entered) < 8:
+            self.entered += key
+        self.display.text = "●" * len(self.entered)
+
+
+class TeacherScreen(Screen):
+    """Sessions and groups on the left; actions on the right."""
+
+    def on_pre_enter(self, *args):
+        app = App.get_running_app()
+        if not app.teacher_unlocked:
+            Clock.schedule_once(lambda dt: app.go("pin"), 0)
+            return
+        self.refresh()
+
+    def refresh(self) -> None:
+        app = App.get_running_app()
+        t = app.t
+        store = app.store
+        self.clear_widgets()
+        root = filled(BoxLayout(padding=dp(12), spacing=dp(12)), (0.93, 0.95, 0.98, 1))
+        left = BoxLayout(orientation="vertical", spacing=dp(8))
+        bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
+        bar.add_widget(IconButton("home", t("home"), on_press=self.leave, size_hint_x=None, width=dp(100)))
+        bar.add_widget(big_label(t("sessions"), 24, size_hint_y=1))
+        left.add_widget(bar)
+        row = BoxLayout(size_hint_y=None, height=dp(56), spacing=dp(8))
+        self.session_name = TextInput(hint_text=t("new_session"), multiline=False, font_size=dp(20))
+        row.add_widget(self.session_name)
+        row.add_widget(IconButton("add", t("new_session"), on_press=self.add_session, size_hint_x=None,
+                                  width=dp(140), font_size=dp(12)))
+        left.add_widget(row)
+        sessions = store.list_sessions()
+        if sessions and app.teacher_session_id not in [s[0] for s in sessions]:
+            app.teacher_session_id = sessions[-1][0]
+        lst = GridLayout(cols=1, spacing=dp(4), size_hint_y=None)
+        lst.bind(minimum_height=lst.setter("height"))
+        for sid, name in sessions:
+            b = IconButton("teacher", name, on_press=lambda s=sid: self.pick_session(s), size_hint_y=None,
+                           height=dp(64), selected=sid == app.teacher_session_id)
+            lst.add_widget(b)
+        if app.teacher_session_id is not None:
+            lst.add_widget(big_label(t("roster"), 20))
+            for group in store.list_groups(app.teacher_session_id):
+                lst.add_widget(Label(text=f"{group.name}: {', '.join(group.members)}", color=(0.1, 0.1, 0.2, 1),
+                                     font_size=dp(17), size_hint_y=None, height=dp(34)))
+            grow = BoxLayout(size_hint_y=None, height=dp(56), spacing=dp(6))
+            self.group_name = TextInput(hint_text=t("group_name"), multiline=False, font_size=dp(18))
+            self.members = TextInput(hint_text=t("members"), multiline=False, font_size=dp(18))
+            grow.add_widget(self.group_name)
+            grow.add_widget(self.members)
+            grow.add_widget(IconButton("add", t("add_group"), on_press=self.add_group, size_hint_x=None,
+                                       width=dp(130), font_size=dp(12)))
+            lst.add_widget(grow)
+        scroll = ScrollView(do_scroll_x=False)
+        scroll.add_widget(lst)
+        left.add_widget(scroll)
+        root.add_widget(left)
+
+        right = GridLayout(cols=2, spacing=dp(10), size_hint_x=None, width=dp(420), row_default_height=dp(96),
+                           row_force_default=True)
+        right.add_widget(IconButton("calibration", t("calibration"), on_press=lambda: app.go("calibration")))
+        right.add_widget(IconButton("projector", t("present_all"), on_press=app.present_all))
+        right.add_widget(IconButton("export", t("export_video"), on_press=self.export_videos))
+        right.add_widget(IconButton("export", t("export_packages"), on_press=self.export_packages))
+        right.add_widget(IconButton("add", t("import_package"), on_press=self.import_packages))
+        right.add_widget(IconButton("export", t("export_log"), on_press=self.export_log))
+        log_on = store.activity_logging
+        right.add_widget(IconButton("teacher", f"{t('activity_log')}: {t('on') if log_on else t('off')}",
+                                    on_press=self.toggle_log, selected=log_on, font_size=dp(13)))
+        self.status = Label(text="", color=(0.1, 0.3, 0.1, 1), font_size=dp(14), halign="left", valign="top")
+        self.status.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
+        right.add_widget(self.status)
+        root.add_widget(right)
+        self.add_widget(root)
+
+    # -- actions --------------------------------------------------------------------
+    def leave(self) -> None:
+        app = App.get_running_app()
+        app.teacher_unlocked = False
+        app.go_home()
+
+    def _report(self, text: str) -> None:
+        self.status.text = text
+
+    def add_session(self) -> None:
+        app = App.get_running_app()
+        try:
+            app.teacher_session_id = app.store.create_session(self.session_name.text)
+        except StorageError as exc:
+            return self._report(str(exc))
+        self.refresh()
+
+    def pick_session(self, session_id: int) -> None:
+        App.get_running_app().teacher_session_id = session_id
+        self.refresh()
+
+    def add_group(self) -> None:
+        app = App.get_running_app()
+        members = [m.strip() for m in self.members.text.replace("、", ",").split(",") if m.strip()]
+        try:
+            app.store.add_group(app.teacher_session_id, self.group_name.text, members)
+        except StorageError as exc:
+            return self._report(str(exc))
+        self.refresh()
+
+    def toggle_log(self) -> None:
+        store = App.get_running_app().store
+        store.set_activity_logging(not store.activity_logging)
+        self.refresh()
+
+    def export_log(self) -> None:
+        app = App.get_running_app()
+        path = app.export_dir / "activity.csv"
+        n = app.store.export_activity_csv(path)
+        self._report(app.t("exported_to", path=f"{path} ({n})"))
+
+    def export_packages(self) -> None:
+        app = App.get_running_app()
+        paths = []
+        for summary in app.store.list_stories():
+            try:
+                paths.append(app.store.export_package(summary.id, app.export_dir / f"story_{summary.id}.zip"))
+            except StorageError as exc:
+                self._report(str(exc))
+        self._report(app.t("exported_to", path=f"{app.export_dir} ({len(paths)})"))
+
+    def import_packages(self) -> None:
+        """Import every .zip in the profile's inbox folder (teachers copy packages there)."""
+        app = App.get_running_app()
+        inbox = app.inbox_dir
+        inbox.mkdir(parents=True, exist_ok=True)
+        done, problems = 0, []
+        for path in sorted(inbox.glob("*.zip")):
+            try:
+                app.store.import_package(path)
+                done += 1
+            except StorageError as exc:
+                problems.append(str(exc))
+        self._report(f"{inbox}: {done} imported" + ("\n" + "\n".join(problems) if problems else ""))
+
+    def export_videos(self) -> None:
+        """Render one MP4 per story with ``storybeam render`` in a background process."""
+        app = App.get_running_app()
+        exporter = app.video_exporter
+        if exporter is None:
+            return self._report(app.t("not_available", why="storybeam render"))
+        summaries = app.store.list_stories()
+
+        def work():
+            lines = []
+            for s in summaries:
+                try:
+                    lines.append(str(exporter(app.store.load_story(s.id), app.export_dir / f"story_{s.id}.mp4")))
+                except StoryBeamError as exc:
+                    lines.append(str(exc))
+            Clock.schedule_once(lambda dt: self._report("\n".join(lines)), 0)
+        threading.Thread(target=work, daemon=True).start()
+        self._report("...")
+
+
+class CalibrationScreen(Screen):
+    """Step-by-step calibration; each step runs on a worker thread."""
+
+    def on_pre_enter(self, *args):
+        app = App.get_running_app()
+        self.wizard = CalibrationWizard(Path(app.profile_dir))
+        self.refresh()
+
+    def refresh(self) -> None:
+        app = App.get_running_app()
+        t = app.t
+        self.clear_widgets()
+        root = filled(BoxLayout(orientation="vertical", padding=dp(16), spacing=dp(10)), (0.93, 0.95, 0.98, 1))
+        bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
+        bar.add_widget(IconButton("home", t("back"), on_press=lambda: app.go("teacher"), size_hint_x=None,
+                                  width=dp(100)))
+        bar.add_widget(big_label(t("calib_intro"), 24, size_hint_y=1))
+        root.add_widget(bar)
+        for i, step in enumerate(self.wizard.steps):
+            text = _STEP_TEXT[step.key][app.lang]
+            if step.result:
+                text += f"  ✓ {step.result}"
+            if step.error:
+                text += f"  ✗ {step.error}"
+            colour = (0.1, 0.45, 0.1, 1) if step.result else (0.7, 0.1, 0.1, 1) if step.error else (0.1, 0.1, 0.2, 1)
+            if i == self.wizard.current:
+                colour = (0.1, 0.2, 0.7, 1) if not step.error else colour
+            root.add_widget(big_label(text, 19, colour=colour, halign="left", text_size=(dp(900), None)))
+        root.add_widget(Widget())
+        label = t("calib_done") if self.wizard.done else t("calib_next")
+        self.next_button = IconButton("play", label, on_press=self.next_step, size_hint_y=None, height=dp(90),
+                                      background=[0.75, 0.95, 0.75, 1])
+        root.add_widget(self.next_button)
+        self.add_widget(root)
+
+    def next_step(self) -> None:
+        if self.wizard.done or getattr(self, "_busy", False):
+            return
+        self._busy = True
+        self.next_button.text = "..."
+
+        def work():
+            self.wizard.run_next()
+            Clock.schedule_once(lambda dt: self._finished(), 0)
+        threading.Thread(target=work, daemon=True).start()
+
+    def _finished(self) -> None:
+        self._busy = False
+        self.refresh()

@@ -1,0 +1,97 @@
+"""Big, friendly touch widgets: every button has an icon *and* a label, and is at least
+``MIN_TOUCH_DP`` on each side (children's fingers; Android's guideline is 48 dp)."""
+from __future__ import annotations
+
+from typing import Callable
+
+from kivy.graphics import Color, Line, RoundedRectangle
+from kivy.metrics import dp
+from kivy.properties import BooleanProperty, ListProperty, StringProperty
+from kivy.uix.behaviors import ButtonBehavior
+from kivy.uix.boxlayout import BoxLayout
+from kivy.uix.label import Label
+from kivy.uix.widget import Widget
+
+from app.ui.art import draw_icon
+
+MIN_TOUCH_DP = 48
+BUTTON_DP = 76
+
+
+class IconView(Widget):
+    """Draws one procedural icon centred in its box."""
+
+    icon = StringProperty("")
+    colour = ListProperty([0.15, 0.15, 0.2])
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.bind(pos=self._redraw, size=self._redraw, icon=self._redraw, colour=self._redraw)
+
+    def _redraw(self, *_: object) -> None:
+        self.canvas.clear()
+        s = min(self.width, self.height)
+        with self.canvas:
+            draw_icon(self.icon, self.center_x - s / 2, self.center_y - s / 2, s, tuple(self.colour))
+
+
+class IconButton(ButtonBehavior, BoxLayout):
+    """A rounded button: icon on top, label below. ``selected`` draws a thick outline."""
+
+    icon = StringProperty("")
+    text = StringProperty("")
+    selected = BooleanProperty(False)
+    background = ListProperty([1, 1, 1, 0.92])
+    icon_colour = ListProperty([0.15, 0.15, 0.2])
+
+    def __init__(self, icon: str = "", text: str = "", on_press: Callable[..., object] | None = None,
+                 font_size: float | None = None, **kwargs):
+        kwargs.setdefault("orientation", "vertical")
+        kwargs.setdefault("padding", dp(4))
+        kwargs.setdefault("spacing", dp(2))
+        super().__init__(**kwargs)
+        self.icon, self.text = icon, text
+        self.icon_view = IconView(icon=icon, colour=self.icon_colour)
+        self.label = Label(text=text, color=(0.1, 0.1, 0.15, 1), font_size=font_size or dp(15),
+                           size_hint_y=None, height=dp(22), halign="center", shorten=True,
+                           shorten_from="right")
+        self.label.bind(size=lambda lbl, size: setattr(lbl, "text_size", (size[0], None)))
+        self.add_widget(self.icon_view)
+        self.add_widget(self.label)
+        self.bind(text=lambda *_: setattr(self.label, "text", self.text),
+                  icon=lambda *_: setattr(self.icon_view, "icon", self.icon),
+                  icon_colour=lambda *_: setattr(self.icon_view, "colour", self.icon_colour),
+                  pos=self._redraw, size=self._redraw, selected=self._redraw, state=self._redraw,
+                  background=self._redraw)
+        if on_press is not None:
+            self.bind(on_release=lambda *_: on_press())
+
+    def _redraw(self, *_: object) -> None:
+        self.canvas.before.clear()
+        pressed = self.state == "down"
+        with self.canvas.before:
+            r, g, b, a = self.background
+            k = 0.85 if pressed else 1.0
+            Color(r * k, g * k, b * k, a)
+            RoundedRectangle(pos=self.pos, size=self.size, radius=[dp(14)])
+            if self.selected:
+                Color(1.0, 0.55, 0.1, 1)
+                Line(rounded_rectangle=(self.x + 2, self.y + 2, self.width - 4, self.height - 4, dp(14)),
+                     width=dp(3))
+
+
+def big_label(text: str, size: float = 22, colour: tuple[float, ...] = (0.1, 0.1, 0.15, 1), **kwargs) -> Label:
+    """A label with room for Japanese descenders and a readable size."""
+    kwargs.setdefault("size_hint_y", None)
+    kwargs.setdefault("height", dp(size * 1.9))
+    return Label(text=text, font_size=dp(size), color=colour, **kwargs)
+
+
+def filled(widget: Widget, rgba: tuple[float, float, float, float]) -> Widget:
+    """Give a layout a solid background colour that follows its size."""
+    from kivy.graphics import Rectangle
+    with widget.canvas.before:
+        Color(*rgba)
+        rect = Rectangle(pos=widget.pos, size=widget.size)
+    widget.bind(pos=lambda w, p: setattr(rect, "pos", p), size=lambda w, s: setattr(rect, "size", s))
+    return widget
