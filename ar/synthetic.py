@@ -93,7 +93,7 @@ class SyntheticCamera:
 
     def __init__(self, board: Board, camera: PinholeModel | None = None, supersample: int = 2,
                  projector: PinholeModel | None = None, proj_from_cam: np.ndarray | None = None,
-                 board_px_per_m: float = 4000.0, ambient: float = 0.85, projector_gain: float = 0.9):
+                 board_px_per_m: float = 4000.0, ambient: float = 0.6, projector_gain: float = 0.45):
         self.board = board
         self.camera = camera or default_camera()
         self.projector = projector or default_projector()
@@ -276,3 +276,44 @@ def handheld_trajectory(board: Board, n_frames: int, cfg: TrajectoryConfig | Non
         dt = cfg.tremor_m * np.array([fast["tx"][i], fast["ty"][i], fast["tz"][i]])
         poses.append(make_transform(R_extra, dt) @ T)
     return poses
+
+
+# ---------------------------------------------------------------------- calibration captures
+def calibration_poses(board: Board, n_views: int = 12, seed: int = 1, distance_m: float = 0.45) -> list[np.ndarray]:
+    """Varied board views for camera calibration (tilts 15-45 degrees all around, board off-centre).
+
+    Varied tilt directions and image positions are what make focal length, principal
+    point and distortion separable; a fronto-parallel-only set would not.
+    """
+    rng = np.random.default_rng(seed)
+    c = board.centre
+    poses = []
+    for i in range(n_views):
+        az = 2 * np.pi * i / n_views + rng.uniform(-0.3, 0.3)
+        tilt = np.radians(rng.uniform(15, 45))
+        d = distance_m * rng.uniform(0.85, 1.15)
+        eye = c + d * np.array([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), -np.cos(tilt)])
+        target = c + np.array([rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05), 0.0])
+        up = np.array([-1.0, 0.0, 0.0]) if i % 2 == 0 else np.array([0.0, -1.0, 0.0])
+        poses.append(look_at(eye, target, up))
+    return poses
+
+
+def capture_projector_sequence(cam: SyntheticCamera, sequence, degradation: Degradation | None = None,
+                               seed: int = 0, inner: tuple[int, int] = (9, 6)):
+    """Drive a :class:`ar.calibration.ProjectorCalibrationSequence` on the synthetic rig.
+
+    Returns ``(step, T_cam_from_board_true, pattern, {"dark", "white", "pattern": frame})``
+    per step. The pattern is placed with the true projector model (placement only; the
+    calibration never sees it).
+    """
+    from ar.calibration import place_pattern, rig_pose_for_step
+
+    rng = np.random.default_rng(seed)
+    out = []
+    for step in sequence:
+        T = rig_pose_for_step(step)
+        pattern = place_pattern(step, T, cam.proj_from_cam, cam.projector.K, cam.projector.size, inner)
+        frames = {name: cam.render(T, getattr(pattern, name), degradation, rng) for name in step.shows}
+        out.append((step, T, pattern, frames))
+    return out

@@ -1,0 +1,138 @@
+"""Temporal pose filtering and tracking state (tracking / holding / lost).
+
+The filter is a One-Euro filter (Casiez et al., CHI 2012) applied on the pose manifold:
+translation is filtered per axis; rotation is filtered in the tangent space of the
+current filtered rotation (``R_f <- R_f exp(alpha * log(R_f^T R_meas))``). One-Euro
+adapts its cut-off to speed: while the rig is nearly still the cut-off is low and the
+tremor/detection jitter is smoothed away; when the rig moves the cut-off rises, so the
+projected character does not trail behind (no visible lag).
+
+:class:`PoseTracker` wraps detection results: it filters good poses, *holds* the last
+filtered pose for ``hold_s`` seconds when the board is lost (so a hand passing over the
+board does not make the character vanish), then reports *lost*; the next good frame
+restarts the filter from that measurement (no smoothing across a gap).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ar.geometry import make_transform
+from ar.pose import PoseEstimate
+
+TRACKING, HOLDING, LOST = "tracking", "holding", "lost"
+
+
+def _alpha(cutoff_hz: float, dt: float) -> float:
+    tau = 1.0 / (2 * math.pi * cutoff_hz)
+    return 1.0 / (1.0 + tau / dt)
+
+
+@dataclass
+class OneEuroParams:
+    """One-Euro settings; units: Hz for cut-offs, ``beta`` in 1/(unit of speed)."""
+
+    min_cutoff_t: float = 1.5  # translation cut-off at rest (Hz)
+    beta_t: float = 20.0  # per (m/s)
+    min_cutoff_r: float = 1.5  # rotation cut-off at rest (Hz)
+    beta_r: float = 0.5  # per (deg/s)
+    d_cutoff: float = 1.0  # cut-off for the speed estimate (Hz)
+
+
+class PoseOneEuroFilter:
+    """One-Euro filter of a rigid pose (translation in metres, rotation on SO(3))."""
+
+    def __init__(self, params: OneEuroParams | None = None):
+        self.p = params or OneEuroParams()
+        self.reset()
+
+    def reset(self) -> None:
+        self._t: np.ndarray | None = None
+        self._R: np.ndarray | None = None
+        self._dt_speed = 0.0
+        self._dr_speed = 0.0
+
+    def __call__(self, T_meas: np.ndarray, dt: float) -> np.ndarray:
+        t_meas, R_meas = T_meas[:3, 3], T_meas[:3, :3]
+        if self._t is None or dt <= 0:
+            self._t, self._R = t_meas.copy(), R_meas.copy()
+            return make_transform(self._R, self._t)
+        p = self.p
+        a_d = _alpha(p.d_cutoff, dt)
+        # translation
+        delta_t = t_meas - self._t
+        self._dt_speed = (1 - a_d) * self._dt_speed + a_d * np.linalg.norm(delta_t) / dt
+        a_t = _alpha(p.min_cutoff_t + p.beta_t * self._dt_speed, dt)
+        self._t = self._t + a_t * delta_t
+        # rotation, in the tangent space of the filtered rotation
+        rvec, _ = cv2.Rodrigues(np.ascontiguousarray(self._R.T @ R_meas))
+        ang_deg = math.degrees(float(np.linalg.norm(rvec)))
+        self._dr_speed = (1 - a_d) * self._dr_speed + a_d * ang_deg / dt
+        a_r = _alpha(p.min_cutoff_r + p.beta_r * self._dr_speed, dt)
+        step, _ = cv2.Rodrigues(rvec * a_r)
+        self._R = self._R @ step
+        return make_transform(self._R, self._t)
+
+
+@dataclass
+class TrackerOutput:
+    """What the app needs per frame: a pose to render with (or None), the state, a confidence."""
+
+    state: str  # TRACKING, HOLDING or LOST
+    T_cam_from_board: np.ndarray | None  # filtered (or held) pose
+    confidence: float  # 0..1; decays linearly to 0 over the hold time
+    raw: PoseEstimate | None  # this frame's unfiltered estimate
+    seconds_since_seen: float
+
+
+class PoseTracker:
+    """Per-frame state machine: filter good poses, hold briefly when lost, recover on the next good frame."""
+
+    def __init__(self, hold_s: float = 0.5, min_confidence: float = 0.2, params: OneEuroParams | None = None,
+                 filter_enabled: bool = True, jump_reset_m: float = 0.05, jump_reset_deg: float = 15.0):
+        self.hold_s = hold_s
+        self.min_confidence = min_confidence
+        self.filter_enabled = filter_enabled
+        self.filter = PoseOneEuroFilter(params)
+        self.jump_reset_m = jump_reset_m
+        self.jump_reset_deg = jump_reset_deg
+        self._last_time: float | None = None
+        self._last_seen: float | None = None
+        self._last_pose: np.ndarray | None = None
+        self._last_conf = 0.0
+
+    def update(self, estimate: PoseEstimate | None, timestamp_s: float) -> TrackerOutput:
+        """Feed this frame's estimate (``None`` = board not found) taken at ``timestamp_s``."""
+        good = estimate is not None and estimate.confidence >= self.min_confidence
+        dt = 0.0 if self._last_time is None else timestamp_s - self._last_time
+        self._last_time = timestamp_s
+        if good:
+            restart = self._last_seen is None or timestamp_s - self._last_seen > self.hold_s
+            if not restart and self._last_pose is not None:
+                restart = self._is_jump(self._last_pose, estimate.T_cam_from_board)
+            if restart:
+                self.filter.reset()
+            since = 0.0 if self._last_seen is None else timestamp_s - self._last_seen
+            pose = (self.filter(estimate.T_cam_from_board, since if not restart else 0.0)
+                    if self.filter_enabled else estimate.T_cam_from_board.copy())
+            self._last_seen = timestamp_s
+            self._last_pose = pose
+            self._last_conf = estimate.confidence
+            return TrackerOutput(TRACKING, pose, estimate.confidence, estimate, 0.0)
+        if self._last_seen is None:
+            return TrackerOutput(LOST, None, 0.0, estimate, math.inf)
+        since = timestamp_s - self._last_seen
+        if since <= self.hold_s:
+            conf = self._last_conf * max(0.0, 1.0 - since / self.hold_s)
+            return TrackerOutput(HOLDING, self._last_pose, conf, estimate, since)
+        self.filter.reset()
+        return TrackerOutput(LOST, None, 0.0, estimate, since)
+
+    def _is_jump(self, T_prev: np.ndarray, T_new: np.ndarray) -> bool:
+        """A big sudden change (re-detection after occlusion, other board) restarts the filter."""
+        dt = np.linalg.norm(T_new[:3, 3] - T_prev[:3, 3])
+        rvec, _ = cv2.Rodrigues(np.ascontiguousarray(T_prev[:3, :3].T @ T_new[:3, :3]))
+        return dt > self.jump_reset_m or math.degrees(float(np.linalg.norm(rvec))) > self.jump_reset_deg
