@@ -99,12 +99,14 @@ def unpack_codes(codes: np.ndarray, n: int) -> np.ndarray:
 def full_table(ratios: np.ndarray) -> np.ndarray:
     """The 4ⁿ×4ⁿ float32 table D for contribution ratios ``c`` (length n)."""
     c = np.asarray(ratios, dtype=np.float64)
-    n = len(c)
-    g = unpack_codes(np.arange(4**n), n)  # (4ⁿ, n)
-    table = np.zeros((4**n, 4**n), dtype=np.float64)
-    for i in range(n):
-        diff = np.abs(g[:, None, i] - g[None, :, i])
-        table += LEVEL_WEIGHTS[diff] * c[i]
+    level_diff = np.abs(np.arange(4)[:, None] - np.arange(4)[None, :])
+    w = LEVEL_WEIGHTS[level_diff]  # (4, 4) weights of one component
+    # Component i occupies bits 2(i-1)..2i-1, so adding a component as the new highest
+    # digit is a Kronecker sum: D_i[(h, l), (h', l')] = c_i w[h, h'] + D_{i-1}[l, l'].
+    table = np.zeros((1, 1))
+    for ci in c:
+        m = table.shape[0]
+        table = ((ci * w)[:, None, :, None] + table[None, :, None, :]).reshape(4 * m, 4 * m)
     return table.astype(np.float32)
 
 

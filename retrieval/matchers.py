@@ -1,0 +1,98 @@
+"""Clip matchers: each turns reference clips into a searchable form (``fit`` = index
+building) and answers ``distances(query)`` = one DTW distance per reference (search).
+
+The proposed method lives here (:class:`QuantizedMatcher`); the research's baselines are in
+:mod:`retrieval.baselines`. All share this interface so the evaluation times exactly the
+same phases for every method: ``fit`` is building, ``distances`` (including turning the
+query's features into codes) is search.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, Sequence
+
+import numpy as np
+
+from .dtw import dtw_codes
+from .errors import StoryBeamError
+from .quantize import MAX_FULL_DIMS, Quantizer, SplitTable
+
+
+@dataclass
+class Clip:
+    """One labelled clip, ready for matching: ``features`` (T, 17) relational features and
+    ``pose`` (T, P) weighted pose-space vectors (Forbes–Fiume baseline), at ``fps``."""
+
+    trial: str
+    label: str
+    features: np.ndarray
+    pose: np.ndarray | None
+    fps: float
+    source: str = ""
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.features.shape[0])
+
+    @property
+    def seconds(self) -> float:
+        return self.n_frames / self.fps
+
+
+class Matcher(Protocol):
+    name: str
+
+    def fit(self, references: Sequence[Clip]) -> "Matcher": ...
+
+    def distances(self, query: Clip) -> np.ndarray: ...
+
+
+class MatcherError(StoryBeamError):
+    """A matcher was used before fitting or on unsuitable clips."""
+
+
+def stack_frames(arrays: Sequence[np.ndarray]) -> np.ndarray:
+    if not arrays:
+        raise MatcherError("no reference clips to fit on")
+    return np.concatenate(arrays, axis=0)
+
+
+class QuantizedMatcher:
+    """The research's method: PCA (n components) + 2-bit codes + table-look-up DTW."""
+
+    name = "quantized"
+
+    def __init__(self, dims: int = 6, band: int | None = None, backend: str = "auto",
+                 max_full_dims: int = MAX_FULL_DIMS):
+        self.dims = dims
+        self.band = band
+        self.backend = backend
+        self.max_full_dims = max_full_dims
+        self.quantizer: Quantizer | None = None
+        self.table: np.ndarray | SplitTable | None = None
+        self.reference_codes: list[np.ndarray] = []
+
+    def fit(self, references: Sequence[Clip]) -> "QuantizedMatcher":
+        self.quantizer = Quantizer.fit(stack_frames([c.features for c in references]), self.dims)
+        self.table = self.quantizer.table(self.max_full_dims)
+        self.reference_codes = [self.quantizer.encode(c.features) for c in references]
+        return self
+
+    @classmethod
+    def from_quantizer(cls, quantizer: Quantizer, reference_codes: list[np.ndarray], band: int | None = None,
+                       backend: str = "auto") -> "QuantizedMatcher":
+        m = cls(quantizer.n, band, backend)
+        m.quantizer = quantizer
+        m.table = quantizer.table(m.max_full_dims)
+        m.reference_codes = reference_codes
+        return m
+
+    def encode(self, features: np.ndarray) -> np.ndarray:
+        if self.quantizer is None:
+            raise MatcherError("quantized matcher used before fit()")
+        return self.quantizer.encode(features)
+
+    def distances(self, query: Clip | np.ndarray) -> np.ndarray:
+        feats = query.features if isinstance(query, Clip) else query
+        codes = self.encode(feats)
+        return np.array([dtw_codes(codes, r, self.table, self.band, self.backend) for r in self.reference_codes])

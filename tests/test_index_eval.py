@@ -1,0 +1,151 @@
+"""Dataset loading, the index (build/save/load/query), the k-fold evaluation and the CLI
+JSON shapes, on a tiny synthetic labelled folder written as BVH files."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from retrieval.errors import DatasetError, IndexFormatError
+from synthetic_motion import make_motion, make_skeleton, write_bvh
+
+pytest.importorskip("retrieval.motion_io")
+
+STYLES = {  # label: (arm swing, knee bend, bounce, period)
+    "walk": (20.0, 15.0, 0.0, 1.0),
+    "run": (60.0, 45.0, 0.08, 0.6),
+    "wave": (90.0, 3.0, 0.0, 0.8),
+}
+
+
+@pytest.fixture(scope="module")
+def library(tmp_path_factory) -> Path:
+    """9 clips, 3 per class, with different body sizes, phases, lengths and headings."""
+    folder = tmp_path_factory.mktemp("lib")
+    rng = np.random.default_rng(7)
+    rows = ["trial,label,file,skeleton,notes"]
+    for label, (arm, knee, bounce, period) in STYLES.items():
+        for k in range(3):
+            sk = make_skeleton(scale=float(rng.uniform(0.7, 1.1)))
+            m = make_motion(sk, frames=int(rng.integers(36, 50)), fps=30.0, arm_swing=arm * rng.uniform(0.9, 1.1),
+                            knee_bend=knee, bounce=bounce, period=period, phase=float(rng.uniform(0, 6)),
+                            heading_deg=float(rng.uniform(0, 360)))
+            name = f"{label}_{k}"
+            write_bvh(m, folder / f"{name}.bvh")
+            rows.append(f"{name},{label},{name}.bvh,,x")
+    (folder / "labels.csv").write_text("\n".join(rows) + "\n")
+    return folder
+
+
+@pytest.fixture(autouse=True)
+def _private_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("STORYBEAM_CACHE", str(tmp_path / "cache"))
+
+
+def test_dataset_loads_clips_and_reports_bad_rows(library, tmp_path):
+    from retrieval.dataset import load_dataset
+
+    clips = load_dataset(library, fps=15, progress=False)
+    assert [c.label for c in clips].count("run") == 3
+    assert all(c.fps == 15 and c.features.shape[1] == 17 and c.pose is not None for c in clips)
+    again = load_dataset(library, fps=15, progress=False)  # through the cache
+    assert np.array_equal(again[4].features, clips[4].features)
+
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "labels.csv").write_text("trial,label,file\nx,walk,x.bvh\n")
+    with pytest.raises(DatasetError, match="skeleton"):
+        load_dataset(bad, progress=False)
+    (bad / "labels.csv").write_text("trial,label,file,skeleton\nx,walk,missing.bvh,\n")
+    with pytest.raises(DatasetError, match="line 2.*missing.bvh"):
+        load_dataset(bad, progress=False)
+
+
+def test_index_query_save_load(library, tmp_path):
+    from retrieval.dataset import load_dataset
+    from retrieval.index import MotionIndex
+    from retrieval.motion_io import load_motion
+
+    index = MotionIndex.build(library, dims=3, fps=30, progress=False)
+    assert len(index) == 9
+    hits = index.query(load_motion(library / "run_1.bvh"), k=3)
+    assert hits[0].trial == "run_1" and hits[0].distance == pytest.approx(0.0, abs=1e-9)
+    assert [h.distance for h in hits] == sorted(h.distance for h in hits)
+    similar = index.similar_to("walk_0", k=2)
+    assert "walk_0" not in [s.trial for s in similar] and similar[0].label == "walk"
+
+    index.save(tmp_path / "idx")
+    loaded = MotionIndex.load(tmp_path / "idx")
+    feats = load_dataset(library, fps=30, progress=False)[2].features
+    assert loaded.query(feats, k=9) == index.query(feats, k=9)
+
+    (tmp_path / "idx" / "index.json").write_text("{not json")
+    with pytest.raises(IndexFormatError):
+        MotionIndex.load(tmp_path / "idx")
+    with pytest.raises(IndexFormatError):
+        MotionIndex.load(tmp_path / "nowhere")
+
+
+def test_folds_are_stratified_and_disjoint():
+    from retrieval.evaluation import stratified_folds
+
+    labels = ["a"] * 7 + ["b"] * 5 + ["c"] * 3
+    parts = stratified_folds(labels, 3, seed=1)
+    allidx = np.concatenate(parts)
+    assert sorted(allidx.tolist()) == list(range(15))
+    for p in parts:
+        assert 4 <= len(p) <= 6
+        assert sum(labels[i] == "c" for i in p) == 1
+
+
+def test_evaluation_separates_the_synthetic_classes(library):
+    from retrieval.dataset import load_dataset
+    from retrieval.evaluation import evaluate
+
+    clips = load_dataset(library, fps=30, progress=False)
+    res = evaluate(clips, ["quantized", "dtw", "forbes"], folds=3, dims=3, progress=False, forbes_clusters=16)
+    for name, r in res.items():
+        assert r.total == 9
+        assert r.accuracy >= 8 / 9, (name, r.predictions)
+        assert set(r.per_class) == set(STYLES)
+        assert r.search_seconds > 0
+
+
+def test_cli_json_shapes(library, tmp_path):
+    from app.cli import main
+
+    out = tmp_path / "eval.json"
+    rc = main(["eval", "--data", str(library), "--folds", "3", "--dims", "3", "--fps", "15",
+               "--json", str(out), "--sweep-dims", "1-2", "--plots", str(tmp_path / "plots"), "--quiet",
+               "--forbes-clusters", "16"])
+    assert rc == 0
+    data = json.loads(out.read_text())
+    assert data["n_clips"] == 9 and data["total_seconds"] > 0
+    for name in ("quantized", "dtw", "forbes"):
+        m = data["methods"][name]
+        assert 0 <= m["accuracy"] <= 1 and 0 <= m["balanced_accuracy"] <= 1 and m["search_seconds"] > 0
+        assert set(m["per_class"]) == set(STYLES)
+    assert [r["dims"] for r in data["sweep"]] == [1, 2]
+    assert all(Path(p).is_file() for p in data["plots"])
+
+    res = tmp_path / "search.json"
+    rc = main(["search", "--data", str(library), "--query", str(library / "wave_2.bvh"), "--top", "4",
+               "--dims", "3", "--json", str(res), "--save-index", str(tmp_path / "idx")])
+    assert rc == 0
+    results = json.loads(res.read_text())["results"]
+    assert len(results) == 4 and results[0]["trial"] == "wave_2"
+    assert set(results[0]) == {"trial", "label", "distance"}
+    assert [r["distance"] for r in results] == sorted(r["distance"] for r in results)
+    # a saved index works as --data too
+    rc = main(["search", "--data", str(tmp_path / "idx"), "--query", str(library / "wave_2.bvh"), "--json", str(res)])
+    assert rc == 0 and json.loads(res.read_text())["results"][0]["trial"] == "wave_2"
+
+
+def test_cli_reports_bad_input_as_one_line(library, capsys):
+    from app.cli import main
+
+    assert main(["eval", "--data", str(library), "--methods", "magic", "--quiet"]) == 1
+    assert "magic" in capsys.readouterr().err
+    assert main(["search", "--data", str(library), "--query", "/nonexistent.bvh"]) == 1
