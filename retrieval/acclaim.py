@@ -116,7 +116,6 @@ class _AsfParser:
         section = None
         bone: _Bone | None = None
         in_hierarchy_block = False
-        last_dof_line = 0
         for ln, raw in enumerate(self.lines, 1):
             s = raw.split("#", 1)[0].strip()
             if not s:
@@ -151,7 +150,7 @@ class _AsfParser:
                 elif bone is None:
                     raise self.fail(f"unexpected {tokens[0]!r} outside begin/end", ln)
                 else:
-                    last_dof_line = self._bone_line(bone, tokens, ln, last_dof_line)
+                    self._bone_line(bone, tokens, ln)
             elif section == ":hierarchy":
                 if key == "begin":
                     in_hierarchy_block = True
@@ -203,7 +202,7 @@ class _AsfParser:
             else:
                 self.root_orientation = vec
 
-    def _bone_line(self, bone: _Bone, tokens: list[str], ln: int, last_dof_line: int) -> int:
+    def _bone_line(self, bone: _Bone, tokens: list[str], ln: int) -> None:
         key = tokens[0].lower()
         if key == "name":
             if len(tokens) != 2:
@@ -234,9 +233,7 @@ class _AsfParser:
             if len(set(dofs)) != len(dofs):
                 raise self.fail(f"bone {bone.name!r}: repeated dof", ln)
             bone.dofs = dofs
-            return ln
         # id, limits (and their continuation lines), bodymass, cofmass: not needed
-        return last_dof_line
 
     def _finish_bone(self, bone: _Bone) -> None:
         if not bone.name:
@@ -333,7 +330,7 @@ def load_amc(path: str | Path, skeleton: AcclaimSkeleton | str | Path, fps: floa
                 degrees = True
             continue
         tokens = s.split()
-        if len(tokens) == 1 and tokens[0].isdigit():
+        if len(tokens) == 1 and tokens[0].isdecimal():
             n_frames += 1
             continue
         name = tokens[0]

@@ -24,7 +24,7 @@ from tqdm import tqdm
 from .bvh import detect_tpose, save_bvh
 from .errors import DatasetError, StoryBeamError
 from .kinematics import resample
-from .motion import Joint, Motion, Skeleton
+from .motion import Motion, Skeleton
 from .motion_io import load_motion
 
 #: Trials bundled with the app, chosen by hand from the shared labels for variety: every

@@ -271,7 +271,7 @@ def _joint_body(path: Path, toks: _Tokens, end_site: bool) -> tuple[np.ndarray, 
             if end_site:
                 raise MotionFormatError(path, "End Site cannot have CHANNELS", ln)
             count_tok, cln = toks.take()
-            if not count_tok.isdigit():
+            if not count_tok.isdecimal():
                 raise MotionFormatError(path, f"bad channel count {count_tok[:40]!r}", cln)
             count = int(count_tok)
             if count > 64:
@@ -316,7 +316,7 @@ def _parse_motion(path: Path, lines: list[str], motion_line: int, n_channels: in
         if key not in header:
             raise MotionFormatError(path, f"MOTION section has no '{key.title()}:' line (truncated?)", len(lines))
     frames_text, fln = header["frames"]
-    if not frames_text.isdigit():
+    if not frames_text.isdecimal():
         raise MotionFormatError(path, f"bad frame count {frames_text[:40]!r}", fln)
     n_frames = int(frames_text)
     if n_frames == 0:

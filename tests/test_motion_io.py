@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from retrieval import textfile
-from retrieval.acclaim import load_amc, load_asf
 from retrieval.body import canonical_joint_map
 from retrieval.bvh import detect_tpose, load_bvh, save_bvh
 from retrieval.errors import MotionFormatError
