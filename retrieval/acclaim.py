@@ -314,20 +314,73 @@ def load_amc(path: str | Path, skeleton: AcclaimSkeleton | str | Path, fps: floa
         raise MotionFormatError(path, f"frame rate must be positive, got {fps}")
     lines = read_lines(path)
     degrees = asf.degrees
+    first = None  # index of the first frame-number line
+    for i, raw in enumerate(lines):
+        s = raw.strip()
+        if not s or s[0] == "#":
+            continue
+        if s[0] == ":":
+            flag = s.split()[0].upper()
+            if flag in (":RADIANS", ":DEGREES"):
+                degrees = flag == ":DEGREES"
+            continue
+        if s.isdecimal():
+            first = i
+        break
+    fast = _read_uniform_frames(lines[first:], asf) if first is not None else None
+    n_frames, values = fast if fast is not None else _read_frames_line_by_line(path, lines, asf)
+    return _amc_to_motion(asf, values, n_frames, degrees, fps, path.stem)
+
+
+#: Per bone: (frame indices, (len(frames), n_dofs) values).
+_BoneValues = dict[str, tuple[np.ndarray, np.ndarray]]
+
+
+def _read_uniform_frames(body: list[str], asf: AcclaimSkeleton) -> tuple[int, _BoneValues] | None:
+    """Fast path for the usual file: every frame lists the same bones in the same order.
+
+    Each bone's lines are every ``period``-th line, so its values parse in one numpy call
+    instead of a Python loop over lines. Returns None at the first irregularity (then the
+    line-by-line reader runs and reports any problem with its line number).
+    """
+    body = [line for line in body if line and not line.isspace()]
+    period = next((k for k in range(1, min(len(body), 1024)) if body[k].strip().isdecimal()), len(body))
+    if not body or len(body) % period:
+        return None
+    n = len(body) // period
+    if not all(line.strip().isdecimal() for line in body[::period]):
+        return None
+    out: _BoneValues = {}
+    frames = np.arange(n)
+    for k in range(1, period):
+        tokens = " ".join(body[k::period]).split()
+        name = tokens[0] if tokens else ""
+        dofs = asf.dofs.get(name)
+        if dofs is None or name in out or len(tokens) != n * (1 + len(dofs)):
+            return None
+        table = np.array(tokens).reshape(n, 1 + len(dofs))
+        if not (table[:, 0] == name).all():
+            return None
+        try:
+            values = table[:, 1:].astype(np.float64)
+        except ValueError:
+            return None
+        if not np.isfinite(values).all():
+            return None
+        out[name] = (frames, values)
+    return n, out
+
+
+def _read_frames_line_by_line(path: Path, lines: list[str], asf: AcclaimSkeleton) -> tuple[int, _BoneValues]:
+    """Any valid AMC layout (bones in any order, missing or commented lines); raises
+    :class:`MotionFormatError` with the line of the first problem."""
     # Per bone: (frame index, line number, value tokens) for every line that names it.
     records: dict[str, list[tuple[int, int, list[str]]]] = {name: [] for name in asf.dofs}
     n_frames = 0
     last_seen: dict[str, int] = {}
     for ln, raw in enumerate(lines, 1):
         s = raw.strip()
-        if not s or s[0] == "#":
-            continue
-        if s[0] == ":":
-            flag = s.split()[0].upper()
-            if flag == ":RADIANS":
-                degrees = False
-            elif flag == ":DEGREES":
-                degrees = True
+        if not s or s[0] in "#:":
             continue
         tokens = s.split()
         if len(tokens) == 1 and tokens[0].isdecimal():
@@ -350,51 +403,49 @@ def load_amc(path: str | Path, skeleton: AcclaimSkeleton | str | Path, fps: floa
         rec.append((n_frames - 1, ln, tokens[1:]))
     if n_frames == 0:
         raise MotionFormatError(path, "no frames (empty motion)")
-    return _amc_to_motion(path, asf, records, n_frames, degrees, fps)
+    values: _BoneValues = {}
+    for name, rec in records.items():
+        if rec:
+            frames = np.array([r[0] for r in rec], dtype=np.int64)
+            values[name] = (frames, _values(path, rec, len(asf.dofs[name])))
+    return n_frames, values
 
 
 def _values(path: Path, rec: list[tuple[int, int, list[str]]], width: int) -> np.ndarray:
     """(len(rec), width) floats from the records' tokens, naming the line of a bad one."""
     try:
         arr = np.array([r[2] for r in rec], dtype=np.float64).reshape(len(rec), width)
-        bad = ~np.isfinite(arr).all(axis=1)
-        if not bad.any():
+        if np.isfinite(arr).all():
             return arr
     except ValueError:
         pass
-    for _, ln, toks in rec:  # slow path: find and report the first bad line
+    for _, ln, toks in rec:  # find and report the first bad line
         parse_floats(toks, path, ln, "value")
     raise AssertionError("unreachable")  # pragma: no cover
 
 
 def _amc_to_motion(
-    path: Path,
-    asf: AcclaimSkeleton,
-    records: dict[str, list[tuple[int, int, list[str]]]],
-    n_frames: int,
-    degrees: bool,
-    fps: float,
+    asf: AcclaimSkeleton, bone_values: _BoneValues, n_frames: int, degrees: bool, fps: float, name: str
 ) -> Motion:
     sk = asf.skeleton
     rotations = np.broadcast_to(np.eye(3), (n_frames, sk.n_joints, 3, 3)).copy()
     root_translation = np.broadcast_to(sk.joints[0].offset, (n_frames, 3)).copy()
     to_rad = np.pi / 180.0 if degrees else 1.0
-    for name, rec in records.items():
-        dofs = asf.dofs[name]
-        if not rec or not dofs:
+    for bone, (frames, present) in bone_values.items():
+        dofs = asf.dofs[bone]
+        if not dofs:
             continue
-        frames = np.array([r[0] for r in rec], dtype=np.int64)
         values = np.zeros((n_frames, len(dofs)))
-        values[frames] = _values(path, rec, len(dofs))
+        values[frames] = present
         rot_cols = [k for k, d in enumerate(dofs) if d in _ROTATION_DOFS]
-        if name == "root":
+        if bone == "root":
             for k, d in enumerate(dofs):
                 if d in _TRANSLATION_DOFS:
-                    root_translation[frames, "xyz".index(d[1])] = values[frames, k]
+                    root_translation[frames, "xyz".index(d[1])] = present[:, k]
         if not rot_cols:
             continue
         axes = [dofs[k][1].upper() for k in rot_cols]
         e = compose_in_application_order(axes, values[:, rot_cols] * to_rad)
-        c = asf.axis_matrix[name]
-        rotations[:, asf.joint_of[name]] = c @ e @ c.T
-    return Motion(sk, rotations, root_translation, float(fps), name=path.stem)
+        c = asf.axis_matrix[bone]
+        rotations[:, asf.joint_of[bone]] = c @ e @ c.T
+    return Motion(sk, rotations, root_translation, float(fps), name=name)

@@ -108,6 +108,22 @@ def test_root_rotation_order_from_asf(tmp_path):
     np.testing.assert_allclose(p[2], [0, 2, 0], atol=1e-12)
 
 
+def test_amc_with_bones_in_any_order_matches_uniform_file(cmu_dir, tmp_path):
+    """Reordering bones inside one frame (legal AMC) takes the line-by-line reader; it
+    must agree exactly with the fast reader used for the uniform original."""
+    src = cmu_dir / "amc" / "02_01.amc"
+    lines = src.read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if line.strip() == "1")
+    second = next(i for i, line in enumerate(lines) if line.strip() == "2")
+    block = lines[first + 1 : second]
+    lines[first + 1 : second] = block[::-1]
+    shuffled = _write(tmp_path, "02_01.amc", "\n".join(lines) + "\n")
+    asf = cmu_dir / "asf" / "02.asf"
+    a, b = load_motion(src, asf), load_motion(shuffled, asf)
+    np.testing.assert_array_equal(a.rotations, b.rotations)
+    np.testing.assert_array_equal(a.root_translation, b.root_translation)
+
+
 # ----------------------------------------------------------------------------- the two CMU formats agree
 
 
