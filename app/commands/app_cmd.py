@@ -102,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
             try:
                 screenshot.parent.mkdir(parents=True, exist_ok=True)
                 with tempfile.TemporaryDirectory() as tmp:
+                    Window.dispatch("on_draw")  # redraw into the back buffer (undefined after a flip)
                     written = Window.screenshot(name=os.path.join(tmp, "frame.png"))
                     shutil.move(written, screenshot)
                 print(f"screenshot: {screenshot}")

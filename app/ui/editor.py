@@ -16,7 +16,8 @@ from kivy.uix.scrollview import ScrollView
 from kivy.uix.widget import Widget
 
 from app.gestures import find_spins, hop_time
-from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES, StoryBeamError
+from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES
+from retrieval.errors import StoryBeamError
 from app.ui.art import MOTION_COLOURS, draw_background, draw_character_badge
 from app.ui.table_view import TableView, normalise_times
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
@@ -172,8 +173,9 @@ class EditorScreen(Screen):
         bar.add_widget(self.undo_button)
         bar.add_widget(self.redo_button)
         bar.add_widget(Widget())
-        bar.add_widget(IconButton("play", t("play"), on_press=lambda: app.go("play"), size_hint_x=None,
-                                  width=dp(90), background=[0.75, 0.95, 0.75, 1]))
+        self.play_button = IconButton("play", t("play"), on_press=lambda: app.go("play"), size_hint_x=None,
+                                      width=dp(90), background=[0.75, 0.95, 0.75, 1])
+        bar.add_widget(self.play_button)
         bar.add_widget(IconButton("projector", t("projector"), on_press=lambda: app.go("projector"),
                                   size_hint_x=None, width=dp(100)))
         centre.add_widget(bar)

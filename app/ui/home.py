@@ -67,8 +67,9 @@ class HomeScreen(Screen):
         bar.add_widget(big_label(t("my_stories"), 30, halign="left", size_hint_y=1))
         bar.add_widget(IconButton("language", t("language"), on_press=app.toggle_language,
                                   size_hint_x=None, width=dp(110)))
-        bar.add_widget(IconButton("teacher", t("teacher"), on_press=lambda: app.go("pin"),
-                                  size_hint_x=None, width=dp(110)))
+        self.teacher_button = IconButton("teacher", t("teacher"), on_press=lambda: app.go("pin"),
+                                         size_hint_x=None, width=dp(110))
+        bar.add_widget(self.teacher_button)
         root.add_widget(bar)
         grid = GridLayout(cols=4, spacing=dp(16), size_hint_y=None, row_default_height=dp(220),
                           row_force_default=True)
@@ -76,6 +77,7 @@ class HomeScreen(Screen):
         new_tile = IconButton("add", t("new_story"), on_press=self.ask_arc, font_size=dp(20),
                               background=[1.0, 0.82, 0.35, 1])
         new_tile.story_id = None
+        self.new_tile = new_tile
         grid.add_widget(new_tile)
         self.tiles: list[StoryTile] = []
         for n, summary in enumerate(app.store.list_stories() if app.store else []):

@@ -1,0 +1,272 @@
+"""Drives the real StoryBeam app with simulated touches, in its own process.
+
+Run by tests/test_app_ui.py as ``python tests/app_ui_driver.py SCENARIO DB OUT``: one
+Kivy app per process (Kivy keeps global window state), offscreen SDL. Each scenario is a
+list of steps; between steps a few frames are drawn so layouts and canvases settle.
+Results go to OUT/result.json; screenshots to OUT/*.png.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from app.ui.env import prepare_kivy_env  # noqa: E402
+
+prepare_kivy_env(headless=True, width=1280, height=800)
+
+from kivy.clock import Clock  # noqa: E402
+from kivy.core.window import Window  # noqa: E402
+from kivy.tests.common import UnitTestTouch  # noqa: E402
+
+from app.services import MotionCatalog  # noqa: E402
+from app.ui.app import StoryBeamApp  # noqa: E402
+
+SCENARIO, DB, OUT = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
+OUT.mkdir(parents=True, exist_ok=True)
+result: dict = {"steps": []}
+
+
+def centre(widget) -> tuple[float, float]:
+    return widget.to_window(*widget.center)
+
+
+def tap(widget) -> None:
+    x, y = centre(widget)
+    touch = UnitTestTouch(x, y)
+    touch.touch_down()
+    touch.touch_up()
+
+
+class TimedTouch(UnitTestTouch):
+    """A test touch whose move times are set by the test (a real finger takes time;
+    the simulated one would draw the whole stroke within a millisecond)."""
+
+    fake_time = 0.0
+
+    def move(self, args):
+        super().move(args)
+        self.time_update = self.fake_time
+
+
+def stroke(points_px: list[tuple[float, float]], dt: float = 0.05) -> None:
+    """A finger stroke through window pixels, with time stamps ``dt`` apart."""
+    t0 = time.time()
+    touch = TimedTouch(*points_px[0])
+    touch.time_start = touch.time_update = touch.fake_time = t0
+    touch.touch_down()
+    for i, (x, y) in enumerate(points_px[1:], start=1):
+        touch.fake_time = t0 + i * dt
+        touch.touch_move(x, y)
+    touch.touch_up()
+
+
+def drag(widget, dy: float, steps: int = 8) -> None:
+    x, y = centre(widget)
+    stroke([(x, y + dy * i / steps) for i in range(steps + 1)])
+
+
+def table_px(table, mx: float, my: float) -> tuple[float, float]:
+    return table.to_window(*table.to_px(mx, my))
+
+
+def shot(name: str) -> str:
+    Window.dispatch("on_draw")  # draw into the back buffer now: after a flip its contents are undefined
+    path = Window.screenshot(name=str(OUT / f"{name}.png"))
+    final = OUT / f"{name}.png"
+    os.replace(path, final)
+    return str(final)
+
+
+def editor(app):
+    return app.sm.get_screen("editor")
+
+
+# --------------------------------------------------------------------------- scenarios
+def touch_story_steps(app):
+    """Three scenes made by touch alone, then wait to be killed."""
+    home = app.sm.get_screen("home")
+    yield lambda: tap(home.new_tile)
+    yield lambda: tap(home.arc_view.children[0].children[0].children[-1])  # "short" arc (3 scenes)
+    for k in range(3):
+        def pick_scene(k=k):
+            thumbs = list(reversed(editor(app).strip.children))
+            tap(thumbs[k])
+        yield pick_scene
+        yield lambda: tap(editor(app).character_buttons[["robot", "animal", "child"][k]])
+
+        def sketch(k=k):
+            table = editor(app).table
+            stroke([table_px(table, 0.1 + 0.1 * i, 0.2 + 0.1 * k) for i in range(9)])
+        yield sketch
+        yield lambda: tap(editor(app).motion_buttons[["walk", "jump", "dance"][k]])
+
+    def report():
+        story = app.editor.story
+        result["story_id"] = story.id
+        result["scenes"] = [[(c.kind, len(c.path), c.motion.motion_class) for c in s.characters] for s in story.scenes]
+        (OUT / "result.json").write_text(json.dumps(result))
+        print("READY", flush=True)
+    yield report
+    yield "hang"
+
+
+def editor_steps(app):
+    """Sketch, hop arc, scene drag-reorder, undo, motion choice, similar clips, play."""
+
+    def sketch():
+        table = editor(app).table
+        result["selected"] = app.selected_character_id
+        stroke([table_px(table, 0.2 + 0.08 * i, 0.3) for i in range(10)])
+    yield sketch
+
+    def after_sketch():
+        c = app.editor.story.scenes[0].character(result["selected"])
+        result["path"] = c.path
+        result["marks_after_sketch"] = [m.kind for m in c.marks]
+    yield after_sketch
+
+    def hop():
+        table = editor(app).table
+        stroke([table_px(table, 0.4 + 0.02 * i, 0.3 + 0.1 * (1 - abs(i - 5) / 5)) for i in range(11)])
+    yield hop
+    yield lambda: result.update(marks_after_hop=[m.kind for m in app.editor.story.scenes[0].character(result["selected"]).marks])
+
+    def spin_sketch():  # a path with a small loop in the middle
+        table = editor(app).table
+        pts = [(0.2 + 0.02 * i, 0.5) for i in range(11)]  # right to x = 0.4
+        pts += [(0.4, 0.53), (0.4, 0.56), (0.37, 0.56), (0.35, 0.56), (0.35, 0.53), (0.35, 0.47)]  # loop back across
+        pts += [(0.35 + 0.03 * i, 0.45) for i in range(1, 12)]
+        stroke([table_px(table, x, y) for x, y in pts])
+    yield spin_sketch
+    yield lambda: result.update(marks_after_spin=[m.kind for m in app.editor.story.scenes[0].character(result["selected"]).marks])
+
+    yield lambda: result.update(order_before=[s.id for s in app.editor.story.scenes])
+    yield lambda: drag(list(reversed(editor(app).strip.children))[0], -260)
+    yield lambda: result.update(order_after_drag=[s.id for s in app.editor.story.scenes])
+    yield lambda: tap(editor(app).undo_button)
+    yield lambda: result.update(order_after_undo=[s.id for s in app.editor.story.scenes])
+    yield lambda: tap(editor(app).redo_button)
+    yield lambda: result.update(order_after_redo=[s.id for s in app.editor.story.scenes])
+    yield lambda: tap(list(reversed(editor(app).strip.children))[0])  # select the (moved) first scene
+    yield lambda: tap(editor(app).motion_buttons["kick"])
+
+    def motion():
+        scene = app.editor.story.scene(app.current_scene_id)
+        c = scene.character(app.selected_character_id)
+        result["motion"] = c.motion.motion_class
+    yield motion
+    yield lambda: editor(app).more_like_this()
+    yield lambda: result.update(similar=[b.text for b in editor(app).clip_view.children[0].children[1].children[0].children])
+    yield lambda: editor(app).clip_view.dismiss()
+    yield lambda: shot("editor_after")
+    yield lambda: tap(editor(app).play_button)
+
+    def on_play():
+        result["screen_after_play"] = app.sm.current
+        play = app.sm.get_screen("play")
+        play.scrubber.value = 1.5
+    yield on_play
+    yield lambda: result.update(play_time=app.sm.get_screen("play").table.time,
+                                play_scene=app.sm.get_screen("play").table.scene.id,
+                                story_scenes=[s.id for s in app.editor.story.scenes])
+    yield lambda: shot("play")
+    yield lambda: app.go("projector")
+    yield lambda: shot("projector")
+    yield finish
+
+
+def language_steps(app):
+    yield lambda: shot(f"editor_{app.lang}")
+    hint = editor(app).hint
+    yield lambda: result.update(hint_box=[*hint.to_window(*hint.pos), *hint.size], hint_text=hint.text)
+    yield lambda: app.go("home")
+    yield lambda: shot(f"home_{app.lang}")
+    yield finish
+
+
+def teacher_steps(app):
+    home = app.sm.get_screen("home")
+    yield lambda: result.update(teacher_button=[*centre(app.sm.get_screen("home").teacher_button), app.sm.current])
+    yield lambda: tap(app.sm.get_screen("home").teacher_button)
+    yield lambda: result.update(after_tap=app.sm.current)
+    pin = lambda: app.sm.get_screen("pin")  # noqa: E731
+    for key in "2468":
+        yield lambda key=key: tap(pin().keys[key])
+    yield lambda: tap(pin().keys["ok"])
+    yield lambda: result.update(after_first_pin=app.sm.current, pin_set=app.store.has_pin())
+    yield lambda: shot("teacher")
+    yield lambda: app.sm.get_screen("teacher").leave()
+    yield lambda: app.go("pin")
+    for key in "1111":
+        yield lambda key=key: tap(pin().keys[key])
+    yield lambda: tap(pin().keys["ok"])
+    yield lambda: result.update(after_wrong_pin=app.sm.current, wrong_message=pin().message.text)
+    yield lambda: shot("pin")
+    yield finish
+
+
+def finish():
+    (OUT / "result.json").write_text(json.dumps(result))
+    app_ref[0].stop()
+
+
+SCENARIOS = {"touch_story": touch_story_steps, "editor": editor_steps, "language": language_steps,
+             "teacher": teacher_steps}
+app_ref: list = []
+
+
+class DriverApp(StoryBeamApp):
+    def on_start(self):
+        self._steps = iter(SCENARIOS[SCENARIO](self))
+        self._flips = 0
+        Window.bind(on_flip=self._count_flip)
+        Clock.schedule_once(self._first, 0.1)
+
+    def _count_flip(self, *_):
+        self._flips += 1
+
+    def _first(self, _dt):
+        """Start only after two drawn frames: before that the layout may not have run."""
+        if self._flips < 2:
+            Clock.schedule_once(self._first, 0.05)
+            return
+        Clock.schedule_once(self._next, 0.1)
+
+    def _next(self, _dt):
+        if self._flips < getattr(self, "_wait_for_flips", 0):
+            Clock.schedule_once(self._next, 0.02)  # the last step's new widgets are not laid out yet
+            return
+        try:
+            step = next(self._steps)
+        except StopIteration:
+            return
+        if step == "hang":
+            return  # wait to be killed
+        try:
+            step()
+            result["steps"].append("ok")
+        except Exception as exc:  # record and stop: the test reports which step failed
+            import traceback
+            result["error"] = f"step {len(result['steps'])}: {traceback.format_exc()}"
+            (OUT / "result.json").write_text(json.dumps(result))
+            self.stop()
+            return
+        self._wait_for_flips = self._flips + 2
+        Window.canvas.ask_update()  # make sure frames are drawn even if the step changed nothing
+        Clock.schedule_once(lambda dt: Window.canvas.ask_update(), 0.01)
+        Clock.schedule_once(self._next, 0.02)
+
+
+if __name__ == "__main__":
+    lang = os.environ.get("STORYBEAM_TEST_LANG", "en")
+    demo = SCENARIO in ("editor", "language")
+    catalog = MotionCatalog(Path(os.environ["STORYBEAM_TEST_MOTIONS"]), build_index=False) \
+        if os.environ.get("STORYBEAM_TEST_MOTIONS") else MotionCatalog(build_index=False)
+    app = DriverApp(DB, lang=lang, demo=demo, catalog=catalog)
+    app_ref.append(app)
+    app.run()
