@@ -522,3 +522,16 @@ def test_fuzzed_bvh_only_raises_format_error(tmp_path):
             load_motion(path)
         except MotionFormatError:
             pass
+
+
+def test_too_deep_asf_is_refused(tmp_path):
+    bones = "".join(
+        f"  begin\n    id {i}\n    name b{i}\n    direction 0 1 0\n    length 1\n    axis 0 0 0 XYZ\n    dof rx\n  end\n"
+        for i in range(300)
+    )
+    chain = "    root b0\n" + "".join(f"    b{i} b{i + 1}\n" for i in range(299))
+    text = ":units\n  length 1\n  angle deg\n:root\n  order TX TY TZ RX RY RZ\n  axis XYZ\n" \
+           f":bonedata\n{bones}:hierarchy\n  begin\n{chain}  end\n"
+    asf = _write(tmp_path, "deep.asf", text)
+    with pytest.raises(MotionFormatError, match=r"deep\.asf: hierarchy deeper than 256"):
+        load_skeleton(asf)
