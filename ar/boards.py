@@ -128,8 +128,10 @@ class Board:
             if n_markers > dictionary.bytesList.shape[0]:
                 raise BoardSpecError(f"board spec {self.spec}: needs {n_markers} markers, {s.dictionary} has only {dictionary.bytesList.shape[0]}")
             self._cv_board = board
-        #: white paper around the pattern; checkerboards need a quiet zone of one square.
-        self.margin_m = max(s.square_m, 0.01)
+        #: white paper around the pattern: a checkerboard needs a quiet zone of one square
+        #: for findChessboardCornersSB; ChArUco/grid need only a thin white border (5 mm),
+        #: which keeps the default board (200 x 280 mm pattern) on an A4 page.
+        self.margin_m = s.square_m if s.kind == "checker" else 0.005
 
     # ----------------------------------------------------------------- geometry
     @property

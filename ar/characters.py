@@ -246,22 +246,22 @@ def build_character(name: str = "robot", height_m: float = DEFAULT_HEIGHT_M) -> 
         add(f"{side}_hand", f"{side}_hand", _sphere(off[f"{side}_hand_end"] * 0.5, r * 1.35), pal.hands)
     if "antenna" in d.extras:
         top = hc + np.array([0, hr, 0])
-        add("antenna", "head", _capsule(top - [0, 0.2 * hr, 0], top + [0, 0.35 * hr, 0], 0.12 * hr), pal.limbs)
+        add("antenna", "head", _capsule(top - [0, 0.2 * hr, 0], top + [0, 0.35 * hr, 0], 0.18 * hr), pal.limbs)
         add("antenna_ball", "head", _sphere(top + [0, 0.45 * hr, 0], 0.2 * hr), pal.accent)
         for side in (-1, 1):  # round "ear" bolts
             add(f"bolt_{side}", "head", _sphere(hc + [side * hr, 0, 0], 0.22 * hr), pal.accent)
     if "ears" in d.extras:
         for side in (-1, 1):
             c = hc + np.array([side * 0.6 * hr, 0.8 * hr, 0])
-            add(f"ear_{side}", "head", _ellipsoid(c, (0.3 * hr, 0.42 * hr, 0.14 * hr)), pal.head)
-            add(f"ear_inner_{side}", "head", _ellipsoid(c + [0, -0.02 * hr, 0.08 * hr], (0.18 * hr, 0.28 * hr, 0.1 * hr)), pal.accent)
+            add(f"ear_{side}", "head", _ellipsoid(c, (0.3 * hr, 0.42 * hr, 0.18 * hr)), pal.head)
+            add(f"ear_inner_{side}", "head", _ellipsoid(c + [0, -0.02 * hr, 0.08 * hr], (0.18 * hr, 0.28 * hr, 0.13 * hr)), pal.accent)
         add("nose", "head", _sphere(hc + np.array([0, -0.2 * hr, 0.98 * hr]), 0.14 * hr), pal.accent)
     if "tail" in d.extras:
         add("tail", "hips", _capsule(np.array([0, 0, -0.8 * tz]), np.array([0, 0.25 * h, -0.25 * h]), r * 0.9), pal.body)
     if "belly" in d.extras:
         add("belly", "spine", _ellipsoid((0, 0, 0.55 * tz), (0.7 * tx, 0.7 * ty, 0.5 * tz)), pal.hands)
     if "hair" in d.extras:
-        add("hair", "head", _ellipsoid(hc + np.array([0, 0.25 * hr, -0.12 * hr]), (1.06 * hr, 0.85 * hr, 1.0 * hr)), (90, 50, 20))
+        add("hair", "head", _ellipsoid(hc + np.array([0, 0.25 * hr, -0.12 * hr]), (1.06 * hr, 0.85 * hr, 1.0 * hr)), (240, 120, 30))  # ginger: dark hair would not show in projected light
     return Character(name, sk, parts, height_m)
 
 

@@ -33,6 +33,36 @@ class PoseEstimate:
     coverage: float  # matched points / points on the board
     confidence: float  # 0..1, see :func:`pose_confidence`
     detection: BoardDetection
+    covariance: np.ndarray | None = None  # 6x6, [local rotation (rad), translation (m)], see pose_covariance
+
+
+def pose_covariance(T_cam_from_board: np.ndarray, object_points: np.ndarray, K: np.ndarray, dist: np.ndarray,
+                    sigma_px: float) -> np.ndarray:
+    """First-order 6x6 covariance of a PnP pose: ``sigma^2 (J^T J)^-1``.
+
+    Parametrisation: ``R = R_est @ exp(dtheta)`` (local rotation, rad) and
+    ``t = t_est + dt`` (m). The Jacobian is taken numerically (6 extra projections),
+    which avoids the singularities of the global Rodrigues vector. It tells the
+    Kalman filter how much to trust this frame: few points, one-sided coverage,
+    steep views or noisy corners all show up here.
+    """
+    obj = np.asarray(object_points, np.float64).reshape(-1, 1, 3)
+    d = np.asarray(dist, np.float64).ravel()
+    R, t = T_cam_from_board[:3, :3], T_cam_from_board[:3, 3]
+
+    def proj(Rx, tx):
+        px, _ = cv2.projectPoints(obj, cv2.Rodrigues(Rx)[0], tx, K, d)
+        return px.reshape(-1)
+
+    base = proj(R, t)
+    eps = 1e-6
+    J = np.empty((base.size, 6))
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = eps
+        J[:, k] = (proj(R @ cv2.Rodrigues(e)[0], t) - base) / eps
+        J[:, 3 + k] = (proj(R, t + e) - base) / eps
+    return sigma_px ** 2 * np.linalg.pinv(J.T @ J)
 
 
 def pose_confidence(n_points: int, coverage: float, rms_px: float) -> float:
@@ -63,7 +93,11 @@ def solve_board_pose(detection: BoardDetection, K: np.ndarray, dist: np.ndarray)
     if not np.all(np.isfinite(T)) or T[2, 3] <= 0 or rms > MAX_RMS_PX:
         return None
     coverage = detection.n / max(1, detection.total_points)
-    return PoseEstimate(T, rms, detection.n, coverage, pose_confidence(detection.n, coverage, rms), detection)
+    # residual rms underestimates noise with few points (6 dof absorbed); floor it at 0.05 px
+    dof = max(1, 2 * detection.n - 6)
+    sigma = max(0.05, rms * np.sqrt(2 * detection.n / dof))
+    cov = pose_covariance(T, detection.object_points, K, d, sigma)
+    return PoseEstimate(T, rms, detection.n, coverage, pose_confidence(detection.n, coverage, rms), detection, cov)
 
 
 def estimate_board_pose(image: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray) -> PoseEstimate | None:

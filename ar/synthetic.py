@@ -132,7 +132,10 @@ class SyntheticCamera:
 
     def render(self, T_cam_from_board: np.ndarray, projector_image: np.ndarray | None = None,
                degradation: Degradation | None = None, rng: np.random.Generator | None = None) -> np.ndarray:
-        """BGR uint8 camera frame of the table, board and (optional) projector light."""
+        """BGR uint8 camera frame of the table, board and (optional) projector light.
+
+        ``projector_image``: what the projector shows, RGB uint8 (H, W, 3) or grey (H, W).
+        """
         deg = degradation or Degradation()
         rng = rng or np.random.default_rng(0)
         px, py, valid = self.plane_points(T_cam_from_board)
@@ -182,6 +185,8 @@ class SyntheticCamera:
         pimg = projector_image.astype(np.float32) / 255.0
         if pimg.ndim == 2:
             pimg = np.repeat(pimg[..., None], 3, -1)
+        else:
+            pimg = np.ascontiguousarray(pimg[..., ::-1])  # projector images are RGB (as rendered); frames are BGR
         return cv2.remap(pimg, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
 
     def _occlude(self, img: np.ndarray, T_cam_from_board: np.ndarray, fraction: float,

@@ -1,0 +1,122 @@
+"""`storybeam calibrate camera|projector`: intrinsics of the camera, then projector + rig extrinsics."""
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("calibrate", help="calibrate the camera or the projector-camera rig", description=__doc__)
+    sub = p.add_subparsers(dest="target", metavar="TARGET")
+    sub.required = True
+
+    cam = sub.add_parser("camera", help="camera intrinsics + distortion from board images")
+    src = cam.add_mutually_exclusive_group(required=True)
+    src.add_argument("--images", type=Path, help="folder of board images")
+    src.add_argument("--camera-index", type=int, help="live camera index (captures --views frames)")
+    src.add_argument("--synthetic", action="store_true", help="calibrate the synthetic bench camera (self-check)")
+    cam.add_argument("--views", type=int, default=15, help="views to capture live / render synthetically")
+    cam.add_argument("--board", default=None, help="board spec (default: ChArUco default board)")
+    cam.add_argument("--reject-px", type=float, default=1.0, help="views fitting worse than this (and 3x median) are dropped")
+    cam.add_argument("--out", type=Path, required=True, help="camera.json")
+    cam.set_defaults(func=run_camera)
+
+    proj = sub.add_parser("projector", help="projector intrinsics + camera->projector transform",
+                          description="Works on a folder written by a capture run (step_XX_{dark,white,pattern}.png "
+                                      "+ capture.json). --synthetic runs the guided sequence on the synthetic rig "
+                                      "(writing the captures to --images when given) and reports errors vs truth.")
+    proj.add_argument("--images", type=Path, help="capture folder")
+    proj.add_argument("--camera", type=Path, help="camera.json (with --synthetic: optional, else calibrated first)")
+    proj.add_argument("--board", default=None, help="board spec (default: ChArUco default board)")
+    proj.add_argument("--synthetic", action="store_true", help="drive the guided sequence on the synthetic rig")
+    proj.add_argument("--steps", type=int, default=8, help="capture steps for --synthetic (default 8)")
+    proj.add_argument("--show-steps", action="store_true", help="print the guided capture instructions and exit")
+    proj.add_argument("--out", type=Path, help="projector.json")
+    proj.set_defaults(func=run_projector)
+
+
+def run_camera(args: argparse.Namespace) -> int:
+    from ar.boards import DEFAULT_BOARD_SPEC, Board
+    from ar.calibration import calibrate_camera, capture_from_camera, load_images
+
+    board = Board(args.board or DEFAULT_BOARD_SPEC)
+    truth = None
+    if args.images:
+        views = load_images(args.images)
+    elif args.synthetic:
+        from ar.synthetic import SyntheticCamera, calibration_poses
+
+        cam = SyntheticCamera(board)
+        views = [(f"synthetic_{i:02d}", cam.render(T)) for i, T in enumerate(calibration_poses(board, args.views))]
+        truth = cam.camera
+    else:
+        print(f"capturing {args.views} views from camera {args.camera_index}; move the board between captures")
+        views = capture_from_camera(args.camera_index, args.views, board)
+    calib = calibrate_camera(views, board, reject_px=args.reject_px)
+    calib.save(args.out)
+    K = calib.camera_matrix
+    print(f"RMS reprojection error: {calib.rms:.3f} px over {len(calib.per_view_errors)} views "
+          f"({len(calib.rejected_views)} rejected)")
+    for name, why in calib.rejected_views.items():
+        print(f"  rejected {name}: {why}")
+    print(f"fx={K[0, 0]:.2f} fy={K[1, 1]:.2f} cx={K[0, 2]:.2f} cy={K[1, 2]:.2f} dist={[round(float(v), 4) for v in calib.dist_coeffs]}")
+    if truth is not None:
+        print(f"vs truth: fx error {100 * (K[0, 0] / truth.K[0, 0] - 1):+.3f} %, fy error {100 * (K[1, 1] / truth.K[1, 1] - 1):+.3f} %")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def run_projector(args: argparse.Namespace) -> int:
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    from ar.boards import DEFAULT_BOARD_SPEC, Board
+    from ar.calibration import (CameraCalibration, ProjectorCalibrationSequence, calibrate_camera,
+                                calibrate_projector_from_folder, extrinsics_error, write_capture)
+    from retrieval.errors import StoryBeamError
+
+    board = Board(args.board or DEFAULT_BOARD_SPEC)
+    sequence = ProjectorCalibrationSequence(board, n_steps=args.steps)
+    if args.show_steps:
+        for step in sequence:
+            print(step.instruction)
+        return 0
+    if args.out is None:
+        raise StoryBeamError("--out is required")
+    if args.synthetic:
+        import tempfile
+
+        from ar.synthetic import SyntheticCamera, calibration_poses, capture_projector_sequence
+
+        cam = SyntheticCamera(board)
+        if args.camera:
+            camera = CameraCalibration.load(args.camera)
+        else:
+            views = [(f"synthetic_{i:02d}", cam.render(T)) for i, T in enumerate(calibration_poses(board, 12))]
+            camera = calibrate_camera(views, board)
+            print(f"camera calibrated on 12 synthetic views: RMS {camera.rms:.3f} px")
+        folder = args.images or Path(tempfile.mkdtemp(prefix="storybeam_projcal_"))
+        captures = capture_projector_sequence(cam, sequence)
+        for step, *_ in captures:
+            print(step.instruction)
+        write_capture(folder, [(step, frames, pattern) for step, _T, pattern, frames in captures], cam.projector.size)
+        print(f"captures written to {folder}")
+    else:
+        if not args.images or not args.camera:
+            raise StoryBeamError("--images and --camera are required (or use --synthetic)")
+        camera = CameraCalibration.load(args.camera)
+        folder = args.images
+    calib = calibrate_projector_from_folder(folder, board, camera)
+    calib.save(args.out)
+    K, t = calib.camera_matrix, calib.t_proj_from_cam
+    print(f"projector RMS reprojection error: {calib.rms:.3f} px ({len(calib.per_view_errors)} steps used, "
+          f"{len(calib.rejected_views)} rejected)")
+    for name, why in calib.rejected_views.items():
+        print(f"  rejected {name}: {why}")
+    print(f"projector fx={K[0, 0]:.1f} fy={K[1, 1]:.1f} cx={K[0, 2]:.1f} cy={K[1, 2]:.1f}; "
+          f"camera->projector t = ({t[0] * 1000:.1f}, {t[1] * 1000:.1f}, {t[2] * 1000:.1f}) mm")
+    if args.synthetic:
+        rot, trans = extrinsics_error(calib, cam.proj_from_cam)
+        print(f"vs truth: extrinsics {rot:.3f} deg, {trans:.2f} mm; projector fx error "
+              f"{100 * (K[0, 0] / cam.projector.K[0, 0] - 1):+.3f} %")
+    print(f"wrote {args.out}")
+    return 0
