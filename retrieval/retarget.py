@@ -441,4 +441,6 @@ def ground_offsets(motion: Motion) -> np.ndarray:
         padded = np.pad(off, k, mode="edge")
         smooth = np.convolve(padded, kernel, mode="valid")
         off = np.where(touching, off, smooth)
+    # A swinging toe may still brush a little below the surface (the character's feet
+    # are not the actor's); lifting the body for it would unplant the standing foot.
     return off
