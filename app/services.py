@@ -99,16 +99,18 @@ class MotionCatalog:
     def similar(self, trial_or_label: str, k: int = 8) -> list[ClipInfo]:
         """Clips like ``trial_or_label`` (a clip id, or a class name: its first clip)."""
         trial = trial_or_label
-        if self.label_of(trial) is None:
+        anchor: list[ClipInfo] = []
+        if self.label_of(trial) is None:  # a class: its first clip, then clips like it
             same = self.clips_of(trial_or_label)
             if not same:
                 return []
             trial = same[0].trial
+            anchor = [same[0]]
         with self._lock:
             index = self._index
         if index is not None:
             try:
-                return [ClipInfo(m.trial, m.label) for m in index.similar_to(trial, k)]
+                return (anchor + [ClipInfo(m.trial, m.label) for m in index.similar_to(trial, k)])[:k]
             except StoryBeamError as exc:
                 log.warning("similar_to(%s) failed: %s", trial, exc)
         label = self.label_of(trial)

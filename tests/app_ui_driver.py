@@ -180,12 +180,19 @@ def editor_steps(app):
     yield finish
 
 
+def button_sizes(root) -> list[tuple[float, float]]:
+    from app.ui.widgets import IconButton
+    return [(w.width, w.height) for w in root.walk() if isinstance(w, IconButton)]
+
+
 def language_steps(app):
     yield lambda: shot(f"editor_{app.lang}")
+    yield lambda: result.update(editor_buttons=button_sizes(editor(app)))
     hint = editor(app).hint
     yield lambda: result.update(hint_box=[*hint.to_window(*hint.pos), *hint.size], hint_text=hint.text)
     yield lambda: app.go("home")
     yield lambda: shot(f"home_{app.lang}")
+    yield lambda: result.update(home_buttons=button_sizes(app.sm.get_screen("home")))
     yield finish
 
 

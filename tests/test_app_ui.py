@@ -122,6 +122,11 @@ def test_japanese_and_english_screens_render_text(language_shots):
         regions[lang] = region
         assert home.std() > 10
     assert r["hint_text"] != language_shots["ja"][0]["hint_text"]
+    for lang, (r, _editor, _home) in language_shots.items():
+        sizes = r["editor_buttons"] + r["home_buttons"]
+        assert len(sizes) > 20
+        # offscreen density is 1, so pixels are dp: every touch target is at least 48 dp
+        assert min(min(w, h) for w, h in sizes) >= 48, f"{lang}: a button smaller than 48 dp"
     assert np.abs(regions["ja"] - regions["en"]).mean() > 1.0
 
 

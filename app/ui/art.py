@@ -117,11 +117,18 @@ def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, f
             cx, cy = P(u, 0.5)
             Ellipse(pos=(cx - 0.07 * s, cy - 0.07 * s), size=(0.14 * s, 0.14 * s))
     elif name in ("undo", "redo"):
-        cx, cy = P(0.5, 0.45)
-        sign = 1 if name == "undo" else -1
-        Line(circle=(cx, cy, 0.3 * s, -90 * sign, 90 * sign), width=lw)
-        ax, ay = cx - sign * 0.0, cy + 0.3 * s
-        Triangle(points=[ax - sign * 0.18 * s, ay, ax, ay + 0.14 * s, ax, ay - 0.14 * s])
+        # a U-turn arrow: head on the top line, pointing back (undo: left, redo: right)
+        m = 1 if name == "undo" else -1
+
+        def Q(u: float, v: float) -> tuple[float, float]:
+            return P(0.5 + m * (u - 0.5), v)
+        top, bottom, turn = 0.68, 0.28, 0.62
+        Line(points=[*Q(0.32, top), *Q(turn, top)], width=lw, cap="none")
+        cx, cy = Q(turn, (top + bottom) / 2)
+        r = (top - bottom) / 2 * s
+        Line(circle=(cx, cy, r, 0, 180) if m == 1 else (cx, cy, r, 180, 360), width=lw)
+        Line(points=[*Q(turn, bottom), *Q(0.25, bottom)], width=lw, cap="round")
+        Triangle(points=[*Q(0.1, top), *Q(0.34, top + 0.16), *Q(0.34, top - 0.16)])
     elif name == "play":
         Triangle(points=[*P(0.25, 0.15), *P(0.25, 0.85), *P(0.85, 0.5)])
     elif name == "pause":
