@@ -261,10 +261,17 @@ def build_clip_space(
         if cycle_dist < 1e-6:
             raise TransitionError(f"{locomotion.name}: the loop does not travel; is it a locomotion clip?")
 
-    def cost_matrix(a: Motion, b: Motion) -> np.ndarray:
-        if transition_cost is not None:
-            return transition_cost(a, b)
-        return pose_distance(pose_features(a), pose_features(b))
+    def cost_matrix(a: Motion, b: Motion) -> tuple[np.ndarray, object]:
+        """(ranking cost, exact re-ranker or None): the code table ranks, the exact pose
+        distance breaks its ties among the best candidates."""
+        exact = pose_distance(pose_features(a), pose_features(b))
+        if transition_cost is None:
+            return exact, None
+
+        def refine(i: int, j: int) -> float:
+            return float(np.mean([exact[i + k, j + k] for k in range(blend) if i + k < len(exact) and j + k < exact.shape[1]]))
+
+        return transition_cost(a, b), refine
 
     def travelled(m: Motion) -> np.ndarray:
         r = m.root_translation[:, [0, 2]] * mpu
@@ -287,15 +294,15 @@ def build_clip_space(
         span = loop.period if (cyclic and loop) else int(fps)
         a_range = (max(0, lo - span // 2), max(lo - span // 2 + 1, lo + span // 2))
         sm = shot.motion
-        cost = cost_matrix(out, sm)
-        tr_in = find_transition(cost, blend, a_range=a_range, b_range=(0, max(1, sm.n_frames // 4)))
+        cost, refine = cost_matrix(out, sm)
+        tr_in = find_transition(cost, blend, a_range=a_range, b_range=(0, max(1, sm.n_frames // 4)), refine=refine)
         # Come back into the locomotion from the shot's last quarter.
         next_dist = shots[k + 1].at_m if k + 1 < len(shots) else distance_m
         back = looped_to(max(0.2, (next_dist - shot.at_m)) * 1.1 + 0.5)
-        cost_back = cost_matrix(sm, back)
+        cost_back, refine_back = cost_matrix(sm, back)
         tr_out = find_transition(
             cost_back, blend, a_range=(max(tr_in.b_frame + blend + 1, 3 * sm.n_frames // 4), sm.n_frames),
-            b_range=(0, loop.period if (cyclic and loop) else max(1, back.n_frames // 2)),
+            b_range=(0, loop.period if (cyclic and loop) else max(1, back.n_frames // 2)), refine=refine_back,
         )
         joined = crossfade(out, sm, tr_in.a_frame, tr_in.b_frame, blend)
         shot_start = tr_in.a_frame

@@ -212,10 +212,13 @@ def find_transition(
     window: int,
     a_range: tuple[int, int] | None = None,
     b_range: tuple[int, int] | None = None,
+    refine=None,
+    shortlist: int = 100,
 ) -> Transition:
     """Cheapest (a, b) in a frame-to-frame cost matrix, comparing ``window`` frames
     ahead (a crossfade of that length needs the two clips to *stay* alike, not only to
-    touch): ``sum_k cost[a + k, b + k]``."""
+    touch): ``sum_k cost[a + k, b + k]``. With ``refine(a, b) -> float`` the
+    ``shortlist`` cheapest pairs are re-ranked by it."""
     na, nb = cost.shape
     w = max(1, int(window))
     a0, a1 = a_range or (0, na)
@@ -227,6 +230,73 @@ def find_transition(
     acc = np.zeros((a1 - a0, b1 - b0))
     for k in range(w):
         acc += cost[a0 + k : a1 + k, b0 + k : b1 + k]
-    k = int(np.argmin(acc))
-    ia, ib = divmod(k, acc.shape[1])
+    if refine is None:
+        k = int(np.argmin(acc))
+        ia, ib = divmod(k, acc.shape[1])
+        return Transition(a0 + ia, b0 + ib, float(acc[ia, ib] / w))
+    # Two stages: the cheap table ranks every pair, the exact measure picks among the
+    # best ``shortlist`` (2-bit codes tie often; the exact distance breaks the ties).
+    flat = acc.ravel()
+    top = np.argpartition(flat, min(shortlist, flat.size) - 1)[:shortlist]
+    best = min(top, key=lambda k: refine(a0 + k // acc.shape[1], b0 + k % acc.shape[1]))
+    ia, ib = divmod(int(best), acc.shape[1])
     return Transition(a0 + ia, b0 + ib, float(acc[ia, ib] / w))
+
+
+# --- the research's code table as a transition cost ------------------------------------
+
+def code_transition_cost(quantizer, table=None):
+    """A ``cost(a, b) -> (A, B)`` function for :func:`find_transition` and
+    :func:`retrieval.path_follow.follow_path` that compares frames by their 2-bit PCA
+    codes through the code-distance table (see :mod:`retrieval.quantize`): one look-up
+    per frame pair. ``quantizer`` is a fitted :class:`~retrieval.quantize.Quantizer`
+    (e.g. ``MotionIndex.matcher.quantizer``); ``table`` defaults to its own table."""
+    from .features import motion_features
+
+    tab = quantizer.table() if table is None else table
+
+    def cost(a: Motion, b: Motion) -> np.ndarray:
+        ca = quantizer.encode(motion_features(a))
+        cb = quantizer.encode(motion_features(b))
+        return code_cost_matrix(ca, cb, tab)
+
+    return cost
+
+
+def pose_cost(a: Motion, b: Motion) -> np.ndarray:
+    """The exact (float) pose distance matrix, for judging transitions."""
+    return pose_distance(pose_features(a), pose_features(b))
+
+
+@dataclass(frozen=True)
+class TransitionJudgement:
+    """Pose distance (leg lengths, windowed like :func:`find_transition`) of the
+    transition picked by the code table, against random transition points."""
+
+    chosen: Transition
+    chosen_pose_cost: float
+    random_pose_cost_mean: float
+    random_pose_cost_median: float
+    random_beaten_fraction: float
+
+
+def judge_transition(
+    a: Motion, b: Motion, code_cost, window: int, n_random: int = 200, seed: int = 0, refine: bool = False
+) -> TransitionJudgement:
+    """Pick the transition (a -> b) by ``code_cost`` (re-ranking its shortlist on the
+    exact distance when ``refine``) and score it, and ``n_random`` uniformly random
+    transition points, on the exact pose distance."""
+    exact = pose_cost(a, b)
+    w = max(1, int(window))
+
+    def windowed(i: int, j: int) -> float:
+        return float(np.mean([exact[i + k, j + k] for k in range(w)]))
+
+    chosen = find_transition(code_cost(a, b), window, refine=windowed if refine else None)
+
+    rng = np.random.default_rng(seed)
+    ri = rng.integers(0, a.n_frames - w, n_random)
+    rj = rng.integers(0, b.n_frames - w, n_random)
+    rand = np.array([windowed(i, j) for i, j in zip(ri, rj)])
+    c = windowed(chosen.a_frame, chosen.b_frame)
+    return TransitionJudgement(chosen, c, float(rand.mean()), float(np.median(rand)), float(np.mean(c < rand)))
