@@ -193,6 +193,9 @@ def language_steps(app):
     yield lambda: app.go("home")
     yield lambda: shot(f"home_{app.lang}")
     yield lambda: result.update(home_buttons=button_sizes(app.sm.get_screen("home")))
+    yield lambda: setattr(app, "editor", None)
+    yield lambda: tap(app.sm.get_screen("home").tiles[0])
+    yield lambda: result.update(after_tile=app.sm.current, opened=app.editor.story.id if app.editor else None)
     yield finish
 
 

@@ -127,6 +127,7 @@ def test_japanese_and_english_screens_render_text(language_shots):
         assert len(sizes) > 20
         # offscreen density is 1, so pixels are dp: every touch target is at least 48 dp
         assert min(min(w, h) for w, h in sizes) >= 48, f"{lang}: a button smaller than 48 dp"
+        assert r["after_tile"] == "editor" and r["opened"] == "demo-robot-cat"  # tapping a story tile opens it
     assert np.abs(regions["ja"] - regions["en"]).mean() > 1.0
 
 

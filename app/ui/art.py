@@ -96,6 +96,8 @@ def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, f
     """An icon in the square (x, y, size); names match motions, characters and actions."""
     s = size
     lw = max(1.5, s * 0.06)
+    if not name:  # a text-only key (e.g. a digit on the PIN pad)
+        return
 
     def P(u: float, v: float) -> tuple[float, float]:
         return x + u * s, y + v * s

@@ -13,17 +13,18 @@ from kivy.uix.screenmanager import Screen
 from kivy.uix.scrollview import ScrollView
 
 from app.storage import StorageError, StorySummary
-from app.ui.art import draw_background
+from app.story import Scene
+from app.ui.art import draw_background, draw_character_badge
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 
 
 class StoryTile(ButtonBehavior, BoxLayout):
     """A saved story: a picture of its first scene, its title and scene count."""
 
-    def __init__(self, summary: StorySummary, title: str, subtitle: str, background: str | None, **kwargs):
+    def __init__(self, summary: StorySummary, title: str, subtitle: str, first_scene: Scene | None, **kwargs):
         super().__init__(orientation="vertical", padding=dp(8), spacing=dp(4), **kwargs)
         self.story_id = summary.id
-        self.background = background
+        self.first_scene = first_scene
         self.picture = BoxLayout()
         self.add_widget(self.picture)
         self.add_widget(Label(text=title, font_size=dp(20), color=(0.1, 0.1, 0.15, 1), size_hint_y=None,
@@ -31,6 +32,7 @@ class StoryTile(ButtonBehavior, BoxLayout):
         self.add_widget(Label(text=subtitle, font_size=dp(15), color=(0.3, 0.3, 0.35, 1), size_hint_y=None,
                               height=dp(22)))
         self.bind(pos=self._redraw, size=self._redraw, state=self._redraw)
+        self.picture.bind(pos=self._redraw, size=self._redraw)
 
     def _redraw(self, *_: object) -> None:
         self.canvas.before.clear()
@@ -42,8 +44,10 @@ class StoryTile(ButtonBehavior, BoxLayout):
             StencilPush()
             RoundedRectangle(pos=p.pos, size=p.size, radius=[dp(12)])
             StencilUse()
-            if self.background:
-                draw_background(self.background, p.x, p.y, p.width, p.height)
+            if self.first_scene is not None:
+                draw_background(self.first_scene.background, p.x, p.y, p.width, p.height)
+                for i, c in enumerate(self.first_scene.characters[:4]):
+                    draw_character_badge(c.kind, p.x + dp(30) + i * dp(44), p.y + dp(30), dp(17))
             else:  # the story could not be read: a grey tile, still deletable by a teacher
                 Color(0.7, 0.7, 0.7, 1)
                 RoundedRectangle(pos=p.pos, size=p.size)
@@ -72,7 +76,7 @@ class HomeScreen(Screen):
         bar.add_widget(self.teacher_button)
         root.add_widget(bar)
         grid = GridLayout(cols=4, spacing=dp(16), size_hint_y=None, row_default_height=dp(220),
-                          row_force_default=True)
+                          row_force_default=True, col_default_width=dp(290), col_force_default=True)
         grid.bind(minimum_height=grid.setter("height"))
         new_tile = IconButton("add", t("new_story"), on_press=self.ask_arc, font_size=dp(20),
                               background=[1.0, 0.82, 0.35, 1])
@@ -81,14 +85,14 @@ class HomeScreen(Screen):
         grid.add_widget(new_tile)
         self.tiles: list[StoryTile] = []
         for n, summary in enumerate(app.store.list_stories() if app.store else []):
-            background = None
+            first_scene = None
             try:
                 story = app.store.load_story(summary.id)
-                background = story.scenes[0].background if story.scenes else "sky"
+                first_scene = story.scenes[0] if story.scenes else Scene()
             except StorageError:
                 pass
             title = summary.title or t("story_n", n=len(app.store.list_stories()) - n)
-            tile = StoryTile(summary, title, t("scenes_n", n=summary.scene_count), background)
+            tile = StoryTile(summary, title, t("scenes_n", n=summary.scene_count), first_scene)
             tile.bind(on_release=lambda tile_: app.open_story(tile_.story_id))
             grid.add_widget(tile)
             self.tiles.append(tile)

@@ -56,7 +56,10 @@ class IconButton(ButtonBehavior, BoxLayout):
                            size_hint_y=None, height=dp(22), halign="center", shorten=True,
                            shorten_from="right")
         self.label.bind(size=lambda lbl, size: setattr(lbl, "text_size", (size[0], None)))
-        self.add_widget(self.icon_view)
+        if icon:
+            self.add_widget(self.icon_view)
+        else:  # text-only key: the label fills the button
+            self.label.size_hint_y, self.label.font_size = 1, (font_size or dp(15)) * 1.4
         self.add_widget(self.label)
         self.bind(text=lambda *_: setattr(self.label, "text", self.text),
                   icon=lambda *_: setattr(self.icon_view, "icon", self.icon),
