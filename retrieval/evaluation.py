@@ -110,7 +110,9 @@ class MethodResult:
         return float(np.mean(list(pc.values()))) if pc else 0.0
 
     def as_dict(self) -> dict:
+        cells = self.extra.get("dtw_cells", 0)
         return {
+            "ns_per_cell": 1e9 * self.search_seconds / cells if cells else None,
             "accuracy": self.accuracy,
             "balanced_accuracy": self.balanced_accuracy,
             "search_seconds": self.search_seconds,
@@ -122,9 +124,28 @@ class MethodResult:
         }
 
 
+def stratified_subset(clips: Sequence[Clip], size: int, seed: int = 0) -> list[Clip]:
+    """``size`` clips drawn without replacement, each class keeping (to rounding) its share
+    — the research reports two database sizes; this makes comparable smaller ones."""
+    if not 1 <= size <= len(clips):
+        raise EvaluationError(f"subset size must be 1..{len(clips)}, got {size}")
+    labels = np.array([c.label for c in clips])
+    classes = sorted(set(labels.tolist()))
+    counts = np.array([np.sum(labels == c) for c in classes])
+    want = np.floor(counts * size / len(clips)).astype(int)
+    order = np.argsort(-(counts * size / len(clips) - want), kind="stable")
+    want[order[: size - want.sum()]] += 1
+    rng = np.random.default_rng(seed)
+    chosen = []
+    for c, k in zip(classes, want):
+        chosen.extend(rng.choice(np.flatnonzero(labels == c), size=k, replace=False).tolist())
+    return [clips[i] for i in sorted(chosen)]
+
+
 def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int = 3, dims: int = 6,
              seed: int = 0, band: int | None = None, forbes_clusters: int | None = None,
-             progress: bool = True, matcher_factory: Callable | None = None) -> dict[str, MethodResult]:
+             progress: bool = True, matcher_factory: Callable | None = None,
+             backend: str = "auto") -> dict[str, MethodResult]:
     """Run the k-fold 1-NN protocol for each method; returns results keyed by method."""
     for m in methods:
         if m not in METHODS and matcher_factory is None:
@@ -139,13 +160,16 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
         refs = [clips[i] for i in ref_idx]
         for name in methods:
             factory = matcher_factory or make_matcher
-            matcher = factory(name, dims=dims, band=band, forbes_clusters=forbes_clusters, seed=seed + f)
+            matcher = factory(name, dims=dims, band=band, forbes_clusters=forbes_clusters, seed=seed + f,
+                              backend=backend)
             t0 = time.perf_counter()
             matcher.fit(refs)
             t1 = time.perf_counter()
             nearest = [int(np.argmin(matcher.distances(clips[q]))) for q in query_idx]
             t2 = time.perf_counter()
             r = results[name]
+            ref_frames = sum(c.n_frames for c in refs)
+            r.extra["dtw_cells"] = r.extra.get("dtw_cells", 0) + int(sum(clips[q].n_frames for q in query_idx) * ref_frames)
             r.build_seconds += t1 - t0
             r.search_seconds += t2 - t1
             if name == "quantized":
@@ -166,12 +190,12 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
 
 
 def sweep_dims(clips: Sequence[Clip], dims_range: Sequence[int], folds: int = 3, seed: int = 0,
-               band: int | None = None, progress: bool = True) -> list[dict]:
+               band: int | None = None, progress: bool = True, backend: str = "auto") -> list[dict]:
     """Proposed method for each n: accuracy, balanced accuracy, search and build seconds,
     mean cumulative contribution ratio, and the table's size in bytes."""
     rows = []
     for n in tqdm(list(dims_range), desc="sweeping n", unit="n", disable=not progress):
-        res = evaluate(clips, ["quantized"], folds, n, seed, band, progress=False)["quantized"]
+        res = evaluate(clips, ["quantized"], folds, n, seed, band, progress=False, backend=backend)["quantized"]
         m = QuantizedMatcher(n)
         table_bytes = 4 * (16**n) if n <= m.max_full_dims else None
         if table_bytes is None:
@@ -183,6 +207,7 @@ def sweep_dims(clips: Sequence[Clip], dims_range: Sequence[int], folds: int = 3,
             "balanced_accuracy": res.balanced_accuracy,
             "search_seconds": res.search_seconds,
             "build_seconds": res.build_seconds,
+            "ns_per_cell": res.as_dict()["ns_per_cell"],
             "cumulative_ratio": float(np.mean(res.extra["cumulative_ratio_per_fold"])),
             "table": "full" if n <= m.max_full_dims else "split",
             "table_bytes": int(table_bytes),

@@ -149,3 +149,16 @@ def test_cli_reports_bad_input_as_one_line(library, capsys):
     assert main(["eval", "--data", str(library), "--methods", "magic", "--quiet"]) == 1
     assert "magic" in capsys.readouterr().err
     assert main(["search", "--data", str(library), "--query", "/nonexistent.bvh"]) == 1
+
+
+def test_stratified_subset_keeps_class_shares():
+    from retrieval.evaluation import EvaluationError, stratified_subset
+    from retrieval.matchers import Clip
+
+    clips = [Clip(f"t{i}", lab, np.zeros((2, 17)), None, 30.0) for i, lab in enumerate(["a"] * 60 + ["b"] * 30 + ["c"] * 10)]
+    sub = stratified_subset(clips, 50, seed=3)
+    labels = [c.label for c in sub]
+    assert len(sub) == 50 and len({c.trial for c in sub}) == 50
+    assert (labels.count("a"), labels.count("b"), labels.count("c")) == (30, 15, 5)
+    with pytest.raises(EvaluationError):
+        stratified_subset(clips, 101)

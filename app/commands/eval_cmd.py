@@ -43,6 +43,9 @@ def register(subparsers) -> None:
     p.add_argument("--sweep-dims", help="also sweep the proposed method over n, e.g. 1-7")
     p.add_argument("--plots", help="folder for the sweep's PNG plots")
     p.add_argument("--seed", type=int, default=0, help="fold assignment seed")
+    p.add_argument("--subset", type=int, help="use a class-stratified random subset of this many clips")
+    p.add_argument("--backend", choices=["auto", "numba", "numpy"], default="auto",
+                   help="DTW back-end (numpy = the no-numba path used on Android)")
     p.add_argument("--no-cache", action="store_true", help="do not use the clip feature cache")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
@@ -53,6 +56,7 @@ def format_table(results: dict, n_clips: int, seconds: float) -> str:
     lines = [f"{n_clips} clips ({seconds:.0f} s of motion)", ""]
     lines.append(f"{'':<22}" + "".join(f"{n:>12}" for n in names))
     lines.append(f"{'search time (s)':<22}" + "".join(f"{results[n]['search_seconds']:>12.3f}" for n in names))
+    lines.append(f"{'ns per DTW cell':<22}" + "".join(f"{results[n]['ns_per_cell'] or 0:>12.2f}" for n in names))
     lines.append(f"{'build time (s)':<22}" + "".join(f"{results[n]['build_seconds']:>12.3f}" for n in names))
     lines.append(f"{'accuracy (%)':<22}" + "".join(f"{100 * results[n]['accuracy']:>12.3f}" for n in names))
     lines.append(f"{'balanced accuracy (%)':<22}" + "".join(f"{100 * results[n]['balanced_accuracy']:>12.3f}" for n in names))
@@ -64,7 +68,7 @@ def format_table(results: dict, n_clips: int, seconds: float) -> str:
 
 def run(args) -> int:
     from retrieval.dataset import load_dataset, read_labels
-    from retrieval.evaluation import METHODS, evaluate, plot_sweep, sweep_dims
+    from retrieval.evaluation import METHODS, evaluate, plot_sweep, stratified_subset, sweep_dims
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in METHODS]
@@ -77,9 +81,11 @@ def run(args) -> int:
     rows = read_labels(args.data)
     clips = load_dataset(args.data, fps=args.fps, cache=not args.no_cache, progress=not args.quiet, rows=rows)
     load_seconds = time.perf_counter() - started
+    if args.subset:
+        clips = stratified_subset(clips, args.subset, args.seed)
     motion_seconds = sum(c.seconds for c in clips)
     res = evaluate(clips, methods, args.folds, args.dims, args.seed, args.band, args.forbes_clusters,
-                   progress=not args.quiet)
+                   progress=not args.quiet, backend=args.backend)
     out = {
         "n_clips": len(clips),
         "total_seconds": motion_seconds,
@@ -88,6 +94,9 @@ def run(args) -> int:
         "dims": args.dims,
         "band": args.band,
         "seed": args.seed,
+        "subset": args.subset,
+        "backend": args.backend,
+        "classes": {c: sum(x.label == c for x in clips) for c in sorted({x.label for x in clips})},
         "load_seconds": load_seconds,
         "methods": {n: {k: v for k, v in r.as_dict().items()} for n, r in res.items()},
     }
@@ -97,7 +106,8 @@ def run(args) -> int:
         out["dtw_over_quantized_search_time"] = ratio
         print(f"\nexact DTW search / quantised search: {ratio:.1f}x")
     if sweep:
-        out["sweep"] = sweep_dims(clips, sweep, args.folds, args.seed, args.band, progress=not args.quiet)
+        out["sweep"] = sweep_dims(clips, sweep, args.folds, args.seed, args.band, progress=not args.quiet,
+                                  backend=args.backend)
         print("\n  n  accuracy  balanced  search(s)  cum.contrib  table")
         for r in out["sweep"]:
             print(f"{r['dims']:>3}  {100 * r['accuracy']:8.2f}  {100 * r['balanced_accuracy']:8.2f}  "
