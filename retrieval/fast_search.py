@@ -1,0 +1,485 @@
+"""Exact k-nearest-neighbour search over code sequences, fast.
+
+Same answers as running the seed's look-up DTW (:func:`retrieval.dtw.dtw_codes`, full
+table, no band, normalised by ``len(a) + len(b)``) against every reference and sorting —
+same neighbours, same distances bit for bit, ties broken by the lower library index like
+``np.argsort(kind="stable")`` — but:
+
+1. **compact table** — the 20 KiB :class:`~retrieval.compact_table.DiffTable` instead of
+   the 64 MiB table (identical values);
+2. **lower bounds** (:mod:`retrieval.lower_bounds`) for every candidate, then candidates
+   in increasing bound order; a candidate whose bound exceeds the current k-th best
+   distance is *pruned* (and so are all after it);
+3. **early abandoning** — a DTW stops as soon as its frontier minimum plus the envelope
+   bound of the rows still to come exceeds the k-th best;
+4. **run-length DTW** (:mod:`retrieval.runlength`) — exact block DP over runs of equal
+   codes, used when :func:`~retrieval.runlength.rle_is_exact` holds (plain DP otherwise);
+5. **parallelism** — a batch of queries runs in a numba ``prange`` (one query per
+   thread); a single query computes its bounds in a ``prange`` over candidates.
+
+``backend="numpy"`` (Android: no numba) runs the same bounds and pruning with the
+vectorised anti-diagonal DP of :mod:`retrieval.dtw`: same neighbours and distances,
+without early abandoning or run-length blocks.
+
+An optional Sakoe–Chiba ``band`` (as in :func:`retrieval.dtw.band_limits`) changes the
+distance (it is then the banded DTW, not the seed's); the bounds stay valid.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from .compact_table import DiffTable
+from .dtw import HAVE_NUMBA, DTWError, _np_dtw_cost, _resolve_backend, band_limits, numba
+from .lower_bounds import distinct_counts
+from .runlength import rle_is_exact, run_length_encode
+
+if HAVE_NUMBA:
+    from .runlength import diff_cost, rle_dtw_raw
+
+
+@dataclass
+class PackedCodes:
+    """Many code sequences packed into flat arrays (what the compiled kernels take):
+    plain codes, runs (value, length) and distinct codes (value, count), each with
+    per-sequence offsets."""
+
+    codes: np.ndarray
+    code_off: np.ndarray
+    run_val: np.ndarray
+    run_len: np.ndarray
+    run_off: np.ndarray
+    run_didx: np.ndarray  # index of each run's code within its sequence's distinct codes
+    dist_val: np.ndarray
+    dist_cnt: np.ndarray
+    dist_off: np.ndarray
+
+    @classmethod
+    def from_sequences(cls, sequences: Sequence[np.ndarray], size: int | None = None) -> "PackedCodes":
+        if len(sequences) == 0:
+            raise DTWError("no code sequences to search")
+        seqs = [np.ascontiguousarray(s, dtype=np.int32) for s in sequences]
+        for i, s in enumerate(seqs):
+            if s.ndim != 1 or s.size == 0:
+                raise DTWError(f"sequence {i}: codes must be a non-empty 1-D array, got shape {s.shape}")
+            if size is not None and (s.min() < 0 or s.max() >= size):
+                raise DTWError(f"sequence {i}: codes must lie in [0, {size}), got [{s.min()}, {s.max()}]")
+        runs = [run_length_encode(s) for s in seqs]
+        dists = [distinct_counts(s) for s in seqs]
+        didx = [np.searchsorted(d[0], r[0]).astype(np.int64) for r, d in zip(runs, dists)]
+        off = lambda parts: np.concatenate(([0], np.cumsum([len(p) for p in parts]))).astype(np.int64)  # noqa: E731
+        return cls(
+            np.concatenate(seqs), off(seqs),
+            np.concatenate([r[0] for r in runs]), np.concatenate([r[1] for r in runs]), off([r[0] for r in runs]),
+            np.concatenate(didx),
+            np.concatenate([d[0] for d in dists]), np.concatenate([d[1] for d in dists]), off([d[0] for d in dists]),
+        )
+
+    def __len__(self) -> int:
+        return len(self.code_off) - 1
+
+    @property
+    def lengths(self) -> np.ndarray:
+        return np.diff(self.code_off)
+
+    @property
+    def nbytes(self) -> int:
+        return int(sum(a.nbytes for a in (self.codes, self.code_off, self.run_val, self.run_len, self.run_off,
+                                            self.run_didx, self.dist_val, self.dist_cnt, self.dist_off)))
+
+    def sequence(self, i: int) -> np.ndarray:
+        return self.codes[self.code_off[i]:self.code_off[i + 1]]
+
+    def arrays(self) -> tuple:
+        return (self.codes, self.code_off, self.run_val, self.run_len, self.run_off, self.run_didx,
+                self.dist_val, self.dist_cnt, self.dist_off)
+
+
+@dataclass
+class SearchStats:
+    """How much work the bounds saved: candidates pruned by their bound, DTWs abandoned
+    early, DTWs run to the end."""
+
+    candidates: int = 0
+    pruned: int = 0
+    abandoned: int = 0
+    completed: int = 0
+
+    @property
+    def pruned_fraction(self) -> float:
+        return self.pruned / self.candidates if self.candidates else 0.0
+
+    @property
+    def abandoned_fraction(self) -> float:
+        return self.abandoned / self.candidates if self.candidates else 0.0
+
+    def add(self, arr: np.ndarray) -> None:
+        self.candidates += int(arr[0])
+        self.pruned += int(arr[1])
+        self.abandoned += int(arr[2])
+        self.completed += int(arr[3])
+
+    def as_dict(self) -> dict:
+        return {"candidates": self.candidates, "pruned": self.pruned, "abandoned": self.abandoned,
+                "completed": self.completed, "pruned_fraction": self.pruned_fraction,
+                "abandoned_fraction": self.abandoned_fraction}
+
+
+# --------------------------------------------------------------------------- compiled kernels
+if HAVE_NUMBA:
+
+    @numba.njit(cache=True, nogil=True)
+    def _lb_pair(q_dv, q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
+                 F, absdiff, shift, mask, colmin):  # pragma: no cover
+        """Normalised max(LB_Kim, envelope rows, envelope columns)."""
+        inf = np.inf
+        nv = c_dv.shape[0]
+        for v in range(nv):
+            colmin[v] = inf
+        rows = 0.0
+        for u in range(q_dv.shape[0]):
+            m = inf
+            a = q_dv[u]
+            for v in range(nv):
+                d = diff_cost(a, c_dv[v], F, absdiff, shift, mask)
+                if d < m:
+                    m = d
+                if d < colmin[v]:
+                    colmin[v] = d
+            rows += m * q_dc[u]
+        cols = 0.0
+        for v in range(nv):
+            cols += colmin[v] * c_dc[v]
+        kim = diff_cost(q_first, c_first, F, absdiff, shift, mask)
+        if nx > 1 or ny > 1:
+            kim += diff_cost(q_last, c_last, F, absdiff, shift, mask)
+        best = rows
+        if cols > best:
+            best = cols
+        if kim > best:
+            best = kim
+        return best / (nx + ny)
+
+    @numba.njit(cache=True, nogil=True)
+    def _row_mins(q_dv, c_dv, F, absdiff, shift, mask, out):  # pragma: no cover
+        for u in range(q_dv.shape[0]):
+            m = np.inf
+            for v in range(c_dv.shape[0]):
+                d = diff_cost(q_dv[u], c_dv[v], F, absdiff, shift, mask)
+                if d < m:
+                    m = d
+            out[u] = m
+
+    @numba.njit(cache=True, nogil=True)
+    def _plain_dtw_raw(a, b, F, absdiff, shift, mask, lo, hi, rest_row, limit, norm, prev, cur):  # pragma: no cover
+        """Row-by-row look-up DTW with band limits and early abandoning: the numbers of
+        :func:`retrieval.dtw._nb_dtw_table` with the difference table."""
+        nx, ny = a.shape[0], b.shape[0]
+        inf = np.inf
+        for j in range(ny):
+            prev[j] = inf
+            cur[j] = inf
+        for i in range(nx):
+            if i >= 2:
+                for j in range(lo[i - 2], hi[i - 2] + 1):
+                    cur[j] = inf
+            ai = a[i]
+            m = inf
+            for j in range(lo[i], hi[i] + 1):
+                if i == 0 and j == 0:
+                    best = 0.0
+                else:
+                    best = inf
+                    if i > 0:
+                        best = prev[j]
+                        if j > 0 and prev[j - 1] < best:
+                            best = prev[j - 1]
+                    if j > 0 and cur[j - 1] < best:
+                        best = cur[j - 1]
+                v = diff_cost(ai, b[j], F, absdiff, shift, mask) + best
+                cur[j] = v
+                if v < m:
+                    m = v
+            if (m + rest_row[i]) / norm > limit:
+                return inf
+            prev, cur = cur, prev
+        return prev[ny - 1]
+
+    @numba.njit(cache=True, nogil=True)
+    def _band_limits_nb(nx, ny, band, lo, hi):  # pragma: no cover
+        """:func:`retrieval.dtw.band_limits` (band >= 0; band < 0 means none)."""
+        if band < 0 or nx == 1:
+            for i in range(nx):
+                lo[i] = 0
+                hi[i] = ny - 1
+            return
+        slope = (ny - 1) / (nx - 1)
+        r = float(band)
+        if slope > r:
+            r = slope
+        one = 1.0 if ny > 1 else 0.0
+        if one > r:
+            r = one
+        for i in range(nx):
+            centre = i * slope
+            x = np.ceil(centre - r - 1e-9)
+            y = np.floor(centre + r + 1e-9)
+            lo[i] = int(min(max(x, 0.0), ny - 1))
+            hi[i] = int(min(max(y, 0.0), ny - 1))
+
+    @numba.njit(cache=True, nogil=True)
+    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, out):  # pragma: no cover
+        (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
+        (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
+        a0, a1 = qco[qi], qco[qi + 1]
+        colmin = np.empty(4096 if ldv.shape[0] > 4096 else ldv.shape[0] + 1)
+        for c in range(lco.shape[0] - 1):
+            b0, b1 = lco[c], lco[c + 1]
+            nvb = ldo[c + 1] - ldo[c]
+            if colmin.shape[0] < nvb:
+                colmin = np.empty(nvb)
+            out[c] = _lb_pair(qdv[qdo[qi]:qdo[qi + 1]], qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
+                              ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
+                              F, absdiff, shift, mask, colmin)
+
+    @numba.njit(cache=True, nogil=True, parallel=True)
+    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, out):  # pragma: no cover
+        (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
+        (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
+        a0, a1 = qco[qi], qco[qi + 1]
+        for c in numba.prange(lco.shape[0] - 1):
+            b0, b1 = lco[c], lco[c + 1]
+            colmin = np.empty(ldo[c + 1] - ldo[c])
+            out[c] = _lb_pair(qdv[qdo[qi]:qdo[qi + 1]], qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
+                              ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
+                              F, absdiff, shift, mask, colmin)
+
+    @numba.njit(cache=True, nogil=True)
+    def _refine(qi, Q, L, F, absdiff, shift, mask, lbs, k, use_rle, band, out_idx, out_dist, stats):  # pragma: no cover
+        """Candidates in bound order: prune, DTW with early abandoning, keep the k best
+        (distance, then index). Writes out_idx/out_dist (k) and stats (4)."""
+        (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
+        (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
+        inf = np.inf
+        ncand = lco.shape[0] - 1
+        a0, a1 = qco[qi], qco[qi + 1]
+        nx = a1 - a0
+        r0, r1 = qro[qi], qro[qi + 1]
+        nruns = r1 - r0
+        d0, d1 = qdo[qi], qdo[qi + 1]
+        for t in range(k):
+            out_idx[t] = -1
+            out_dist[t] = inf
+        order = np.argsort(lbs, kind="mergesort")
+        maxlen = 1
+        for c in range(ncand):
+            if lco[c + 1] - lco[c] > maxlen:
+                maxlen = lco[c + 1] - lco[c]
+        big = maxlen
+        if nx > big:
+            big = nx
+        row_prev = np.empty(big + 2)
+        row_next = np.empty(big + 2)
+        left = np.empty(big + 2)
+        right = np.empty(big + 2)
+        buf_a = np.empty(big + 2)
+        buf_b = np.empty(big + 2)
+        dq = np.empty(big + 2, np.int64)
+        lo = np.empty(nx, np.int64)
+        hi = np.empty(nx, np.int64)
+        rm = np.empty(d1 - d0)
+        rest_run = np.empty(nruns)
+        rest_row = np.empty(nx)
+        pruned = 0
+        abandoned = 0
+        completed = 0
+        for pos in range(ncand):
+            c = order[pos]
+            thr = out_dist[k - 1]
+            if lbs[c] > thr:
+                pruned += ncand - pos
+                break
+            b0, b1 = lco[c], lco[c + 1]
+            ny = b1 - b0
+            norm = float(nx + ny)
+            _row_mins(qdv[d0:d1], ldv[ldo[c]:ldo[c + 1]], F, absdiff, shift, mask, rm)
+            acc = 0.0
+            for p in range(nruns - 1, -1, -1):
+                rest_run[p] = acc
+                acc += rm[qrd[r0 + p]] * qrl[r0 + p]
+            if use_rle and band < 0:
+                raw = rle_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
+                                  F, absdiff, shift, mask, rest_run, thr, norm,
+                                  row_prev, row_next, left, right, buf_a, buf_b, dq)
+            else:
+                i = nx - 1
+                for p in range(nruns - 1, -1, -1):
+                    per = rm[qrd[r0 + p]]
+                    acc = rest_run[p]
+                    for s in range(qrl[r0 + p]):
+                        rest_row[i] = acc
+                        acc += per
+                        i -= 1
+                _band_limits_nb(nx, ny, band, lo, hi)
+                raw = _plain_dtw_raw(qc[a0:a1], lc[b0:b1], F, absdiff, shift, mask, lo, hi, rest_row, thr, norm,
+                                     row_prev, row_next)
+            if raw == inf:
+                abandoned += 1
+                continue
+            completed += 1
+            d = raw / norm
+            if d < thr or (d == thr and c < out_idx[k - 1]):
+                t = k - 1
+                while t > 0 and (out_dist[t - 1] > d or (out_dist[t - 1] == d and out_idx[t - 1] > c)):
+                    out_dist[t] = out_dist[t - 1]
+                    out_idx[t] = out_idx[t - 1]
+                    t -= 1
+                out_dist[t] = d
+                out_idx[t] = c
+        stats[0] = ncand
+        stats[1] = pruned
+        stats[2] = abandoned
+        stats[3] = completed
+
+    @numba.njit(cache=True, nogil=True, parallel=True)
+    def _search_batch(Q, L, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats):  # pragma: no cover
+        nq = Q[1].shape[0] - 1
+        ncand = L[1].shape[0] - 1
+        for qi in numba.prange(nq):
+            lbs = np.empty(ncand)
+            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, lbs)
+            _refine(qi, Q, L, F, absdiff, shift, mask, lbs, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi])
+
+
+# --------------------------------------------------------------------------- public API
+@dataclass
+class SearchResult:
+    """k nearest library indices and their normalised DTW distances per query."""
+
+    indices: np.ndarray  # (queries, k) int64, -1 where the library has fewer than k clips
+    distances: np.ndarray  # (queries, k) float64
+    stats: SearchStats = field(default_factory=SearchStats)
+
+
+class FastSearcher:
+    """Exact k-NN look-up-DTW search over a library of code sequences.
+
+    ``table`` is the :class:`~retrieval.compact_table.DiffTable` of the quantiser's
+    contribution ratios; ``band=None`` gives the seed's (unconstrained) distance.
+    ``run_length=False`` and ``use_bounds=False`` switch those ideas off (ablations).
+    """
+
+    def __init__(self, library: Sequence[np.ndarray], table: DiffTable, band: int | None = None,
+                 backend: str = "auto", run_length: bool = True, use_bounds: bool = True):
+        if band is not None and band < 0:
+            raise DTWError(f"band must be >= 0, got {band}")
+        self.table = table
+        self.band = band
+        self.backend = _resolve_backend(backend)
+        self.library = PackedCodes.from_sequences(library, table.size)
+        self.use_bounds = use_bounds
+        longest = int(self.library.lengths.max())
+        self._longest = longest
+        self.run_length = run_length
+        self._shift = 2 * table.low_dims
+        self._mask = (1 << self._shift) - 1
+
+    def __len__(self) -> int:
+        return len(self.library)
+
+    @property
+    def table_bytes(self) -> int:
+        return self.table.nbytes
+
+    @property
+    def index_bytes_per_clip(self) -> float:
+        return self.library.nbytes / len(self.library)
+
+    def _rle_ok(self, longest_query: int) -> bool:
+        return self.run_length and rle_is_exact(self.table.F, self._longest + longest_query)
+
+    def search(self, queries: Sequence[np.ndarray], k: int = 1, parallel: bool = True) -> SearchResult:
+        """k nearest library clips for each query code sequence (a batch)."""
+        if k < 1:
+            raise DTWError(f"k must be >= 1, got {k}")
+        packed = PackedCodes.from_sequences(queries, self.table.size)
+        if self.backend == "numpy":
+            return self._search_numpy(packed, k)
+        nq = len(packed)
+        out_idx = np.full((nq, k), -1, np.int64)
+        out_dist = np.full((nq, k), np.inf)
+        stats = np.zeros((nq, 4), np.int64)
+        use_rle = self._rle_ok(int(packed.lengths.max()))
+        band = -1 if self.band is None else int(self.band)
+        Q, L = packed.arrays(), self.library.arrays()
+        t = self.table
+        if nq == 1 or not parallel:
+            for qi in range(nq):
+                lbs = np.empty(len(self.library))
+                if not self.use_bounds:
+                    lbs[:] = 0.0
+                elif parallel:
+                    _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, lbs)
+                else:
+                    _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, lbs)
+                _refine(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, lbs, k, use_rle, band,
+                        out_idx[qi], out_dist[qi], stats[qi])
+        else:
+            if not self.use_bounds:
+                raise DTWError("use_bounds=False is only supported for serial searches")
+            _search_batch(Q, L, t.F, t.absdiff, self._shift, self._mask, k, use_rle, band, out_idx, out_dist, stats)
+        res = SearchResult(out_idx, out_dist)
+        for row in stats:
+            res.stats.add(row)
+        return res
+
+    # ------------------------------------------------------------------ numpy path
+    def _search_numpy(self, packed: PackedCodes, k: int) -> SearchResult:
+        from .lower_bounds import lower_bound
+
+        lib = self.library
+        out_idx = np.full((len(packed), k), -1, np.int64)
+        out_dist = np.full((len(packed), k), np.inf)
+        stats = SearchStats()
+        for qi in range(len(packed)):
+            a = packed.sequence(qi)
+            if self.use_bounds:
+                lbs = np.array([lower_bound(a, lib.sequence(c), self.table) for c in range(len(lib))])
+            else:
+                lbs = np.zeros(len(lib))
+            order = np.argsort(lbs, kind="stable")
+            best: list[tuple[float, int]] = []
+            pruned = 0
+            for pos, c in enumerate(order):
+                thr = best[k - 1][0] if len(best) >= k else np.inf
+                if lbs[c] > thr:
+                    pruned = len(order) - pos
+                    break
+                b = lib.sequence(c)
+                lo, hi = band_limits(len(a), len(b), self.band)
+                cost = self.table.lookup(a[:, None], b[None, :])
+                d = float(_np_dtw_cost(cost, lo, hi)) / (len(a) + len(b))
+                best = sorted(best + [(d, int(c))])[:k]
+            for t, (d, c) in enumerate(best):
+                out_idx[qi, t], out_dist[qi, t] = c, d
+            stats.candidates += len(lib)
+            stats.pruned += pruned
+            stats.completed += len(lib) - pruned
+        return SearchResult(out_idx, out_dist, stats)
+
+
+def brute_force(queries: Sequence[np.ndarray], library: Sequence[np.ndarray], table, k: int = 1,
+                band: int | None = None, backend: str = "auto") -> tuple[np.ndarray, np.ndarray]:
+    """Reference k-NN: the seed's DTW against every clip, ``argsort(kind="stable")``."""
+    from .dtw import dtw_codes
+
+    idx = np.full((len(queries), k), -1, np.int64)
+    dist = np.full((len(queries), k), np.inf)
+    for qi, q in enumerate(queries):
+        d = np.array([dtw_codes(q, r, table, band, backend) for r in library])
+        order = np.argsort(d, kind="stable")[:k]
+        idx[qi, :len(order)] = order
+        dist[qi, :len(order)] = d[order]
+    return idx, dist
