@@ -111,7 +111,7 @@ class OverheadView:
     """An authoring preview: grey table, the path, the character; camera above-front."""
 
     def __init__(self, character: Character, path_xz: np.ndarray | None, width: int = 640, height: int = 480,
-                 eye=(0.0, 0.42, 0.34), target=(0.0, 0.0, 0.0)):
+                 eye=(0.0, 0.32, 0.30), target=(0.0, 0.0, 0.0)):
         f = 0.9 * width
         K = np.array([[f, 0, width / 2 - 0.5], [0, f, height / 2 - 0.5], [0, 0, 1.0]])
         self.renderer = ProjectorRenderer(width, height, K, ambient=0.45, light_intensity=3.5)

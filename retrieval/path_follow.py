@@ -328,6 +328,7 @@ def follow_path(
     blend_s: float = 0.3,
     path_smoothing: float = 0.1,
     transition_cost=None,
+    loop: LoopPoints | None = None,
 ) -> FollowResult:
     """Lay ``motion`` (retargeted onto a character, at the character's size) along
     ``path``. See the module docstring for the method.
@@ -342,7 +343,7 @@ def follow_path(
     height = character_height(motion)
     clip, loop, events = build_clip_space(
         motion, path.length, cyclic=cyclic, one_shots=one_shots, blend_s=blend_s,
-        transition_cost=transition_cost,
+        transition_cost=transition_cost, loop=loop,
     )
     window = loop.period if loop is not None else int(round(motion.fps))
     course = _course(clip, window)
