@@ -155,11 +155,22 @@ def editor_steps(app):
     yield lambda: tap(list(reversed(editor(app).strip.children))[0])  # select the (moved) first scene
     yield lambda: tap(editor(app).motion_buttons["kick"])
 
+
     def motion():
         scene = app.editor.story.scene(app.current_scene_id)
         c = scene.character(app.selected_character_id)
         result["motion"] = c.motion.motion_class
     yield motion
+
+    def remove_and_undo():
+        scene = app.editor.story.scene(app.current_scene_id)
+        result["cast_before_remove"] = len(scene.characters)
+    yield remove_and_undo
+    yield lambda: tap(editor(app).remove_button)
+    yield lambda: result.update(cast_after_remove=len(app.editor.story.scene(app.current_scene_id).characters))
+    yield lambda: tap(editor(app).undo_button)
+    yield lambda: result.update(cast_after_undo=len(app.editor.story.scene(app.current_scene_id).characters))
+    yield lambda: result.update(similar_for=editor(app).selected_character().motion.motion_class)
     yield lambda: editor(app).more_like_this()
     yield lambda: result.update(similar=[b.text for b in editor(app).clip_view.children[0].children[1].children[0].children])
     yield lambda: editor(app).clip_view.dismiss()
@@ -193,6 +204,9 @@ def language_steps(app):
     yield lambda: app.go("home")
     yield lambda: shot(f"home_{app.lang}")
     yield lambda: result.update(home_buttons=button_sizes(app.sm.get_screen("home")))
+    yield lambda: tap(app.sm.get_screen("home").language_button)
+    yield lambda: result.update(lang_after_tap=app.lang, lang_saved=app.store.get_setting("language"),
+                                title_after_tap=app.sm.get_screen("home").title_label.text)
     yield lambda: setattr(app, "editor", None)
     yield lambda: tap(app.sm.get_screen("home").tiles[0])
     yield lambda: result.update(after_tile=app.sm.current, opened=app.editor.story.id if app.editor else None)

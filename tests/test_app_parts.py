@@ -133,3 +133,20 @@ def test_calibration_wizard_runs_the_ar_chain_on_synthetic_views(tmp_path):
     broken = CalibrationWizard(tmp_path, board_spec="charuco:bad")
     step = broken.run_next()
     assert step.error and not broken.done and broken.current == 0
+
+
+def test_story_video_export_writes_every_frame(tmp_path):
+    from app.demo import demo_story
+    from app.video_export import VideoExportError, available, export_story_mp4
+    if available():
+        pytest.skip(available())
+    import imageio.v2 as imageio
+    story = demo_story()
+    path = export_story_mp4(story, tmp_path / "demo.mp4", fps=10)
+    reader = imageio.get_reader(path)
+    assert reader.count_frames() == sum(int(round(s.duration * 10)) for s in story.scenes)
+    first = reader.get_data(0)
+    assert first.shape[:2] == (426, 640) and first.std() > 5
+    with pytest.raises(VideoExportError):
+        (tmp_path / "a_file").write_text("x")
+        export_story_mp4(story, tmp_path / "a_file" / "inside.mp4")  # parent is a file

@@ -61,7 +61,10 @@ def test_sketch_marks_reorder_undo_motion_and_play_by_touch(tmp_path):
     assert r["order_after_undo"] == before
     assert r["order_after_redo"] == r["order_after_drag"]
     assert r["motion"] == "kick"
-    assert r["similar"] and set(r["similar"]) <= {"03_01", "04_01"}
+    assert r["cast_after_remove"] == r["cast_before_remove"] - 1
+    assert r["cast_after_undo"] == r["cast_before_remove"]
+    label_of = {"01_01": "walk", "03_01": "kick", "04_01": "kick", "05_01": "jump"}  # the test library
+    assert r["similar"] and {label_of[t] for t in r["similar"]} == {r["similar_for"]}
     assert r["screen_after_play"] == "play"
     assert r["play_time"] == pytest.approx(1.5)
     assert r["play_scene"] == r["story_scenes"][0]
@@ -128,6 +131,9 @@ def test_japanese_and_english_screens_render_text(language_shots):
         # offscreen density is 1, so pixels are dp: every touch target is at least 48 dp
         assert min(min(w, h) for w, h in sizes) >= 48, f"{lang}: a button smaller than 48 dp"
         assert r["after_tile"] == "editor" and r["opened"] == "demo-robot-cat"  # tapping a story tile opens it
+        other = "en" if lang == "ja" else "ja"
+        assert r["lang_after_tap"] == other and r["lang_saved"] == other
+        assert r["title_after_tap"] == {"en": "My stories", "ja": "わたしの おはなし"}[other]
     assert np.abs(regions["ja"] - regions["en"]).mean() > 1.0
 
 

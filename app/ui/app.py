@@ -105,6 +105,9 @@ class StoryBeamApp(App):
             from app.render_bridge import RenderThread
             self.renderer = RenderThread(self.renderer_factory,
                                          lambda cb, frame: Clock.schedule_once(lambda dt: cb(frame), 0))
+        from app import video_export
+        if video_export.available() is None:
+            self.video_exporter = video_export.export_story_mp4
         self.sm = ScreenManager(transition=NoTransition())
         for screen in (HomeScreen(name="home"), EditorScreen(name="editor"), PlayScreen(name="play"),
                        ProjectorScreen(name="projector"), PinScreen(name="pin"), TeacherScreen(name="teacher"),

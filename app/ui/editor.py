@@ -210,7 +210,14 @@ class EditorScreen(Screen):
         self.cast_row = GridLayout(cols=6, spacing=dp(4), size_hint_y=None, height=dp(52))
         for c in (scene.characters if scene else []):
             self.cast_row.add_widget(_CastBadge(c, c.id == app.selected_character_id, self.select_character))
-        right.add_widget(self.cast_row)
+        cast_line = BoxLayout(size_hint_y=None, height=dp(52), spacing=dp(4))
+        cast_line.add_widget(self.cast_row)
+        self.remove_button = IconButton("delete", t("delete"), on_press=self.remove_character, size_hint_x=None,
+                                        width=dp(56), font_size=dp(11))
+        self.remove_button.opacity = 1.0 if self.selected_character() is not None else 0.0
+        self.remove_button.disabled = self.selected_character() is None
+        cast_line.add_widget(self.remove_button)
+        right.add_widget(cast_line)
         right.add_widget(big_label(t("motion"), 16))
         motion_grid = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(2 * BUTTON_DP + 4))
         selected = self.selected_character()
@@ -290,6 +297,11 @@ class EditorScreen(Screen):
         def action(ed):
             app.selected_character_id = ed.add_character(self.scene.id, kind).id
         self._edit(action)
+
+    def remove_character(self) -> None:
+        character = self.selected_character()
+        if character is not None:
+            self._edit(lambda ed: ed.remove_character(self.scene.id, character.id))
 
     def select_character(self, character_id: str) -> None:
         App.get_running_app().selected_character_id = character_id

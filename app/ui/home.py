@@ -68,9 +68,11 @@ class HomeScreen(Screen):
         self.clear_widgets()
         root = filled(BoxLayout(orientation="vertical", padding=dp(16), spacing=dp(12)), (0.98, 0.95, 0.86, 1))
         bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(12))
-        bar.add_widget(big_label(t("my_stories"), 30, halign="left", size_hint_y=1))
-        bar.add_widget(IconButton("language", t("language"), on_press=app.toggle_language,
-                                  size_hint_x=None, width=dp(110)))
+        self.title_label = big_label(t("my_stories"), 30, halign="left", size_hint_y=1)
+        bar.add_widget(self.title_label)
+        self.language_button = IconButton("language", t("language"), on_press=app.toggle_language,
+                                          size_hint_x=None, width=dp(110))
+        bar.add_widget(self.language_button)
         self.teacher_button = IconButton("teacher", t("teacher"), on_press=lambda: app.go("pin"),
                                          size_hint_x=None, width=dp(110))
         bar.add_widget(self.teacher_button)
