@@ -36,7 +36,7 @@ import numpy as np
 from .errors import MotionFormatError
 from .motion import Joint, Motion, Skeleton
 from .rotations import axis_rotation
-from .textfile import MAX_DEPTH, parse_float, parse_floats, read_lines
+from .textfile import MAX_DEPTH, MAX_JOINTS, check_motion_size, parse_float, parse_floats, read_lines
 
 #: CMU's takes are captured at 120 frames per second; AMC files do not say so.
 DEFAULT_AMC_FPS = 120.0
@@ -107,6 +107,7 @@ class _AsfParser:
         self.root_orientation = np.zeros(3)
         self.bones: dict[str, _Bone] = {}
         self.children: dict[str, list[str]] = {}
+        self.has_parent: set[str] = set()  # O(1) "two parents" check (a list scan was O(n^2))
         self.seen_sections: set[str] = set()
 
     def fail(self, problem: str, line: int | None = None) -> MotionFormatError:
@@ -245,6 +246,8 @@ class _AsfParser:
             raise self.fail(f"bone {bone.name!r} has a zero direction", bone.line)
         if norm > 0:
             bone.direction = bone.direction / norm
+        if len(self.bones) >= MAX_JOINTS:
+            raise self.fail(f"more than {MAX_JOINTS} bones (not a real skeleton)", bone.line)
         self.bones[bone.name] = bone
 
     def _hierarchy(self, tokens: list[str], ln: int) -> None:
@@ -255,8 +258,9 @@ class _AsfParser:
         for kid in kids:
             if kid == "root":
                 raise self.fail("root cannot be a child", ln)
-            if any(kid in v for v in self.children.values()):
+            if kid in self.has_parent:
                 raise self.fail(f"bone {kid!r} has two parents", ln)
+            self.has_parent.add(kid)
         self.children.setdefault(parent, []).extend(kids)
 
     def _build(self) -> AcclaimSkeleton:
@@ -329,6 +333,7 @@ def load_amc(path: str | Path, skeleton: AcclaimSkeleton | str | Path, fps: floa
         break
     fast = _read_uniform_frames(lines[first:], asf) if first is not None else None
     n_frames, values = fast if fast is not None else _read_frames_line_by_line(path, lines, asf)
+    check_motion_size(path, n_frames, asf.skeleton.n_joints)
     return _amc_to_motion(asf, values, n_frames, degrees, fps, path.stem)
 
 

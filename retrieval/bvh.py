@@ -59,7 +59,7 @@ from .errors import MotionFormatError
 from .kinematics import global_transforms
 from .motion import Joint, Motion, Skeleton
 from .rotations import axis_rotation, matrix_to_euler
-from .textfile import MAX_DEPTH, MAX_FRAMES, parse_float, parse_floats, read_lines
+from .textfile import MAX_DEPTH, MAX_FRAMES, MAX_JOINTS, check_motion_size, parse_float, parse_floats, read_lines
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +75,9 @@ _UNIT_ALIASES = {"metre": "m", "meter": "m", "metres": "m", "meters": "m", "in":
                  "inches": "inch", "centimetres": "cm", "millimetres": "mm"}
 #: Typical adult stature used to guess units.
 TYPICAL_STATURE_M = 1.7
+
+#: Frame rates above this can only come from a corrupt ``Frame Time``.
+MAX_FPS = 100_000.0
 
 _CHANNEL_NAMES = {f"{a}{kind}".lower(): f"{a}{kind}" for a in "XYZ" for kind in ("position", "rotation")}
 
@@ -103,7 +106,7 @@ def load_bvh(
         raise MotionFormatError(path, f"root_offset must be 'auto', 'add' or 'replace', got {root_offset!r}")
     lines = read_lines(path)
     joints, motion_line = _parse_hierarchy(path, lines)
-    fps, data = _parse_motion(path, lines, motion_line, sum(len(j.channels) for j in joints))
+    fps, data = _parse_motion(path, lines, motion_line, sum(len(j.channels) for j in joints), len(joints))
     skeleton = Skeleton(joints, metres_per_unit=0.01, up_axis="y", name=path.stem)
     motion = _channels_to_motion(skeleton, data, fps, path.stem)
 
@@ -204,6 +207,8 @@ def _parse_hierarchy(path: Path, lines: list[str]) -> tuple[list[Joint], int]:
     def open_block(name: str, parent: int, end_site: bool, line: int) -> None:
         if len(stack) >= MAX_DEPTH:
             raise MotionFormatError(path, f"hierarchy deeper than {MAX_DEPTH} joints", line)
+        if len(joints) >= MAX_JOINTS:
+            raise MotionFormatError(path, f"more than {MAX_JOINTS} joints (not a real skeleton)", line)
         toks.expect("{")
         offset, channels = _joint_body(path, toks, end_site)
         joints.append(Joint(name, parent, offset, channels, _rotation_order(channels)))
@@ -298,7 +303,8 @@ def _rotation_order(channels: list[str]) -> str:
     return order or "ZYX"
 
 
-def _parse_motion(path: Path, lines: list[str], motion_line: int, n_channels: int) -> tuple[float, np.ndarray]:
+def _parse_motion(path: Path, lines: list[str], motion_line: int, n_channels: int,
+                  n_joints: int = 1) -> tuple[float, np.ndarray]:
     """Frame rate and the (T, n_channels) channel values."""
     i = motion_line  # index of the line after MOTION
     header: dict[str, tuple[str, int]] = {}
@@ -323,11 +329,14 @@ def _parse_motion(path: Path, lines: list[str], motion_line: int, n_channels: in
         raise MotionFormatError(path, "no frames (empty motion)", fln)
     if n_frames > MAX_FRAMES:
         raise MotionFormatError(path, f"declared frame count {n_frames} exceeds the limit of {MAX_FRAMES}", fln)
+    check_motion_size(path, n_frames, n_joints, fln)
     dt_text, tln = header["frame time"]
     dt = parse_float(dt_text, path, tln, "frame time")
     if dt <= 0:
         raise MotionFormatError(path, f"frame time must be positive, got {dt_text[:40]!r}", tln)
     fps = 1.0 / dt
+    if not fps <= MAX_FPS:  # also catches inf from a subnormal frame time (round(inf) raises)
+        raise MotionFormatError(path, f"frame time {dt_text[:40]!r} is implausibly small (over {MAX_FPS:.0f} fps)", tln)
     if abs(fps - round(fps)) < 1e-4 * fps:
         fps = float(round(fps))
 

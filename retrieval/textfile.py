@@ -10,13 +10,30 @@ from pathlib import Path
 
 from .errors import MotionFormatError
 
-#: Files larger than this are refused before reading: the biggest real mocap take is a
-#: few tens of MB, and a multi-GB file would exhaust a phone's memory.
-MAX_FILE_BYTES = 512 * 1024 * 1024
+#: Files larger than this are refused before reading. The biggest real mocap take is a
+#: few MB (CMU's largest AMC: 3.7 MB); parsing costs about 13x the file size in peak
+#: memory (measured: a 60 MB BVH peaks at 770 MB RSS), so 64 MB keeps a worst case
+#: under 1 GB on a phone (docs/reliability.md).
+MAX_FILE_BYTES = 64 * 1024 * 1024
 #: More frames than this (about 46 hours at 60 fps) can only be a corrupt header.
 MAX_FRAMES = 10_000_000
 #: Deeper hierarchies than this are corrupt (real skeletons are < 30 deep).
 MAX_DEPTH = 256
+#: More joints (BVH) or bones (ASF) than this are corrupt (real skeletons have < 200).
+MAX_JOINTS = 4096
+#: Frames x joints of a decoded motion (one 3x3 float64 rotation each, 72 bytes): 8
+#: million is 576 MB, far above a real take (10 min at 120 fps x 38 joints = 2.7 M).
+#: Without it a tiny file (thousands of channel-less joints, one value per frame)
+#: asks for tens of GB.
+MAX_FRAME_JOINTS = 8_000_000
+
+
+def check_motion_size(path: str | Path, n_frames: int, n_joints: int, line: int | None = None) -> None:
+    """Refuse a motion whose decoded arrays would exceed :data:`MAX_FRAME_JOINTS`."""
+    if n_frames * n_joints > MAX_FRAME_JOINTS:
+        raise MotionFormatError(
+            path, f"{n_frames} frames x {n_joints} joints is more than the limit of {MAX_FRAME_JOINTS:,} "
+                  "joint poses (file too large to load)", line)
 
 
 def read_lines(path: str | Path) -> list[str]:

@@ -1,0 +1,130 @@
+"""`storybeam stress`: the long robustness campaign (fuzzed motion files, SIGKILLed story
+saves, bad packages and calibration files, lost tracking, a random-touch monkey).
+
+The short versions of the same harnesses run in CI (tests/test_robust_*.py); this command
+runs them for as long as asked and writes one JSON summary with the headline figures
+(``inputs``, ``crashes``, ``hangs``, ``kills``, ``stories_lost``,
+``recovery_frames_max``) plus each harness's detail. See docs/reliability.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+HARNESSES = ("fuzz", "kill", "packages", "tracking", "monkey")
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("stress", help="robustness campaign (fuzzing, crash-safety, tracking loss, monkey)",
+                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--seconds", type=float, default=60.0,
+                   help="time budget per harness in seconds (default 60); a count option below stops it earlier")
+    p.add_argument("--only", default=",".join(HARNESSES),
+                   help=f"comma-separated harnesses to run (default all: {','.join(HARNESSES)})")
+    p.add_argument("--json", type=Path, default=None, help="write the summary as JSON here")
+    p.add_argument("--fuzz-inputs", type=int, default=None, help="stop fuzzing after this many inputs")
+    p.add_argument("--kills", type=int, default=None, help="stop the kill harness after this many kills")
+    p.add_argument("--frames", type=int, default=3000, help="frames per tracking scenario (default 3000)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (every harness is reproducible from it)")
+    p.add_argument("--work-dir", type=Path, default=None,
+                   help="where crash inputs and scratch databases go (default: a temporary folder)")
+    p.set_defaults(func=run)
+
+
+def _selected(only: str) -> list[str]:
+    names = [n.strip() for n in only.split(",") if n.strip()]
+    unknown = sorted(set(names) - set(HARNESSES))
+    if unknown:
+        from retrieval.errors import StoryBeamError
+
+        raise StoryBeamError(f"unknown harness(es) {', '.join(unknown)} (choose from {', '.join(HARNESSES)})")
+    return names
+
+
+def run(args: argparse.Namespace) -> int:
+    import tempfile
+
+    names = _selected(args.only)
+    work = args.work_dir or Path(tempfile.mkdtemp(prefix="storybeam-stress-"))
+    work.mkdir(parents=True, exist_ok=True)
+    summary: dict = {"inputs": 0, "crashes": 0, "hangs": 0, "kills": 0, "stories_lost": 0,
+                     "recovery_frames_max": None, "seed": args.seed, "seconds_per_harness": args.seconds,
+                     "detail": {}}
+    started = time.time()
+    for name in names:
+        t0 = time.time()
+        detail = _RUNNERS[name](args, work / name)
+        detail["seconds"] = round(time.time() - t0, 1)
+        summary["detail"][name] = detail
+        summary["inputs"] += detail.get("inputs", 0)
+        summary["crashes"] += detail.get("crashes", 0)
+        summary["hangs"] += detail.get("hangs", 0)
+        summary["kills"] += detail.get("kills", 0)
+        summary["stories_lost"] += detail.get("stories_lost", 0)
+        if detail.get("recovery_frames_max") is not None:
+            prev = summary["recovery_frames_max"]
+            summary["recovery_frames_max"] = max(prev or 0, detail["recovery_frames_max"])
+        print(f"{name}: " + ", ".join(f"{k}={v}" for k, v in detail.items() if not isinstance(v, (dict, list))),
+              file=sys.stderr)
+    summary["seconds"] = round(time.time() - started, 1)
+    text = json.dumps(summary, indent=1, default=str)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(text + "\n")
+    print(text)
+    failed = summary["crashes"] or summary["hangs"] or summary["stories_lost"] or any(
+        d.get("failures") for d in summary["detail"].values())
+    return 1 if failed else 0
+
+
+# ----------------------------------------------------------------------------- runners
+
+
+def _run_fuzz(args, work: Path) -> dict:
+    from tqdm import tqdm
+
+    from retrieval import fuzz
+
+    repo = Path(__file__).resolve().parents[2]
+    cmu = repo.parent / "shared" / "data" / "cmu"
+    seeds = fuzz.collect_seeds(cmu if cmu.is_dir() else None, repo / "assets" / "motions" / "bvh")
+    with tqdm(total=args.fuzz_inputs, desc="fuzz motion files", unit="input", file=sys.stderr) as bar:
+        stats = fuzz.run_campaign(seeds, inputs=args.fuzz_inputs, seconds=args.seconds, rng_seed=args.seed,
+                                  crash_dir=work / "crashes", progress=bar.update)
+    out = stats.to_dict()
+    out["seeds"] = {k: sum(1 for s in seeds if s.kind == k) for k in fuzz.KINDS}
+    out["seed_source"] = "shared CMU" if cmu.is_dir() else "bundled BVH"
+    out["probes"] = fuzz.memory_probes(work)
+    out["failures"] = sum(1 for p in out["probes"] if not p["ok"])
+    return out
+
+
+def _run_kill(args, work: Path) -> dict:
+    from app.stress.kill import run_kill_campaign
+
+    return run_kill_campaign(work, kills=args.kills, seconds=args.seconds, seed=args.seed)
+
+
+def _run_packages(args, work: Path) -> dict:
+    from app.stress.files import run_bad_file_campaign
+
+    return run_bad_file_campaign(work, seconds=args.seconds, seed=args.seed)
+
+
+def _run_tracking(args, work: Path) -> dict:
+    from ar.stress import run_tracking_campaign
+
+    return run_tracking_campaign(frames=args.frames, seed=args.seed)
+
+
+def _run_monkey(args, work: Path) -> dict:
+    from app.stress.monkey import run_monkey
+
+    return run_monkey(work, seconds=args.seconds, seed=args.seed)
+
+
+_RUNNERS = {"fuzz": _run_fuzz, "kill": _run_kill, "packages": _run_packages, "tracking": _run_tracking,
+            "monkey": _run_monkey}
