@@ -234,14 +234,39 @@ def teacher_steps(app):
     yield finish
 
 
+def play3d_steps(app):
+    yield lambda: app.go("play")
+    state = {"waited": 0}
+
+    def wait_for_frame():
+        while app.renderer.frames_rendered < 1 or app.sm.get_screen("play").table.frame_texture is None:
+            if app.renderer.error or state["waited"] > 600:
+                break
+            state["waited"] += 1
+            return "again"
+    yield wait_for_frame
+    yield lambda: result.update(frames=app.renderer.frames_rendered, render_error=app.renderer.error,
+                                texture=list(app.sm.get_screen("play").table.frame_texture.size)
+                                if app.sm.get_screen("play").table.frame_texture else None,
+                                table_box=[*app.sm.get_screen("play").table.to_window(*app.sm.get_screen("play").table.pos),
+                                           *app.sm.get_screen("play").table.size])
+    yield lambda: shot("play3d")
+    yield finish
+
+
 def finish():
     (OUT / "result.json").write_text(json.dumps(result))
     app_ref[0].stop()
 
 
 SCENARIOS = {"touch_story": touch_story_steps, "editor": editor_steps, "language": language_steps,
-             "teacher": teacher_steps}
+             "teacher": teacher_steps, "play3d": play3d_steps}
 app_ref: list = []
+
+
+def _prepend(item, iterator):
+    yield item
+    yield from iterator
 
 
 class DriverApp(StoryBeamApp):
@@ -272,7 +297,10 @@ class DriverApp(StoryBeamApp):
         if step == "hang":
             return  # wait to be killed
         try:
-            step()
+            if step() == "again":  # the step waits for something: run it again shortly
+                self._steps = _prepend(step, self._steps)
+                Clock.schedule_once(self._next, 0.1)
+                return
             result["steps"].append("ok")
         except Exception as exc:  # record and stop: the test reports which step failed
             import traceback
@@ -288,9 +316,14 @@ class DriverApp(StoryBeamApp):
 
 if __name__ == "__main__":
     lang = os.environ.get("STORYBEAM_TEST_LANG", "en")
-    demo = SCENARIO in ("editor", "language")
+    demo = SCENARIO in ("editor", "language", "play3d")
+    factory = None
+    if SCENARIO == "play3d":
+        def factory():
+            from app.scene_renderer import ScenePreviewRenderer
+            return ScenePreviewRenderer()
     catalog = MotionCatalog(Path(os.environ["STORYBEAM_TEST_MOTIONS"]), build_index=False) \
         if os.environ.get("STORYBEAM_TEST_MOTIONS") else MotionCatalog(build_index=False)
-    app = DriverApp(DB, lang=lang, demo=demo, catalog=catalog)
+    app = DriverApp(DB, lang=lang, demo=demo, catalog=catalog, renderer_factory=factory)
     app_ref.append(app)
     app.run()

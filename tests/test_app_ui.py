@@ -174,3 +174,16 @@ def test_refused_profile_leaves_the_app_usable(tmp_path):
     assert png.is_file()
     assert bad.read_bytes() == b"this is not a database" * 100  # left untouched
     assert (tmp_path / "bad.recovered.db").is_file()
+
+
+def test_play_shows_3d_frames_from_the_render_thread(tmp_path):
+    pytest.importorskip("pyrender")
+    r, out = _drive(tmp_path, "play3d")
+    assert r["render_error"] is None
+    assert r["frames"] >= 1 and r["texture"] == [640, 426]
+    img = _image(out / "play3d.png")
+    x, y, w, h = (int(v) for v in r["table_box"])
+    table = img[800 - (y + h):800 - y, x:x + w]
+    # the overhead view: a black sky band above the lit table, characters in colour
+    assert table[: h // 10].mean() < 20
+    assert table[h // 2:].mean() > 100

@@ -9,6 +9,7 @@ launch, because it is what a teacher waits for in front of a class.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import shutil
 import tempfile
@@ -50,6 +51,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                         "(opens the demo story unless --story is given)")
     p.add_argument("--screen", choices=SCREENS, default=None, help="with --screenshot: which screen (default editor)")
     p.add_argument("--size", default="1280x800", help="window size WxH (default 1280x800)")
+    p.add_argument("--preview", choices=("auto", "3d", "2d"), default="auto",
+                   help="Play preview: 3-D characters (pyrender, on its own thread) or the 2-D top-down "
+                        "animation; auto = 3-D when pyrender is installed, except with --screenshot")
     p.set_defaults(func=run)
 
 
@@ -110,7 +114,15 @@ def run(args: argparse.Namespace) -> int:
                 result["error"] = f"{screenshot}: cannot save screenshot ({exc})"
             self.stop()
 
-    app = _LaunchedApp(db, lang=args.lang, story_id=args.story, demo=demo, start_screen=screen)
+    use_3d = args.preview == "3d" or (args.preview == "auto" and screenshot is None
+                                      and importlib.util.find_spec("pyrender") is not None)
+    factory = None
+    if use_3d:
+        def factory():
+            from app.scene_renderer import ScenePreviewRenderer
+            return ScenePreviewRenderer()
+    app = _LaunchedApp(db, lang=args.lang, story_id=args.story, demo=demo, start_screen=screen,
+                       renderer_factory=factory)
     app.run()
     if result["error"]:
         raise StoryBeamError(result["error"])

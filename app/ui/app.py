@@ -226,7 +226,8 @@ class StoryBeamApp(App):
     def request_frame(self, scene, t: float, callback) -> None:
         """Ask the 3-D renderer (if any) for a frame; the 2-D preview is always drawn."""
         if self.renderer is not None and self.renderer.alive:
-            self.renderer.request(scene, t, callback)
+            from app.story import Scene
+            self.renderer.request(Scene.from_dict(scene.to_dict()), t, callback)  # a copy: the UI owns the original
 
 
 __all__ = ["StoryBeamApp", "register_fonts", "FONT_PATH"]

@@ -39,8 +39,9 @@ def locate(story: Story, t: float, scene_id: str | None = None) -> tuple[int, fl
 class _Player:
     """Clock-driven playback state shared by the play and projector screens."""
 
-    def __init__(self, screen: Screen, table: TableView):
+    def __init__(self, screen: Screen, table: TableView, use_3d: bool = False):
         self.screen, self.table = screen, table
+        self.use_3d = use_3d
         self.t = 0.0
         self.playing = False
         self.scene_only: str | None = None
@@ -64,9 +65,11 @@ class _Player:
         self.t = min(max(t, 0.0), self.duration)
         index, local = locate(story, self.t, self.scene_only)
         if self.table.scene is not story.scenes[index]:
+            self.table.frame_texture = None  # a frame of the previous scene must not linger
             self.table.scene = story.scenes[index]
         self.table.time = local
-        App.get_running_app().request_frame(story.scenes[index], local, self._show_frame)
+        if self.use_3d:
+            App.get_running_app().request_frame(story.scenes[index], local, self._show_frame)
         if self.on_time:
             self.on_time(self.t)
 
@@ -112,7 +115,7 @@ class PlayScreen(Screen):
         self.clear_widgets()
         root = filled(BoxLayout(orientation="vertical", padding=dp(8), spacing=dp(8)), (0.15, 0.15, 0.2, 1))
         self.table = TableView(mode="preview")
-        self.player = _Player(self, self.table)
+        self.player = _Player(self, self.table, use_3d=True)
         bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
         bar.add_widget(IconButton("home", t("back"), on_press=lambda: app.go("editor"), size_hint_x=None,
                                   width=dp(100)))
