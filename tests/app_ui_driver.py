@@ -224,6 +224,25 @@ def teacher_steps(app):
     yield lambda: tap(pin().keys["ok"])
     yield lambda: result.update(after_first_pin=app.sm.current, pin_set=app.store.has_pin())
     yield lambda: shot("teacher")
+    yield lambda: tap(app.sm.get_screen("teacher").calibration_button)
+    calib = lambda: app.sm.get_screen("calibration")  # noqa: E731
+    state = {"taps": 0, "polls": 0}
+
+    def run_wizard():
+        wizard = calib().wizard
+        if wizard.done or state["polls"] > 600:
+            return None
+        state["polls"] += 1
+        if not getattr(calib(), "_busy", False):
+            if any(st.error for st in wizard.steps):
+                return None
+            state["taps"] += 1
+            tap(calib().next_button)
+        return "again"
+    yield run_wizard
+    yield lambda: result.update(calibration=[[st.key, st.result, st.error] for st in calib().wizard.steps],
+                                calibration_taps=state["taps"])
+    yield lambda: app.go("teacher")
     yield lambda: app.sm.get_screen("teacher").leave()
     yield lambda: app.go("pin")
     for key in "1111":

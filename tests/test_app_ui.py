@@ -141,6 +141,11 @@ def test_teacher_pin_pad_sets_then_checks_the_pin(tmp_path):
     r, out = _drive(tmp_path, "teacher")
     assert r["after_tap"] == "pin"
     assert r["pin_set"] and r["after_first_pin"] == "teacher"
+    # the calibration wizard, four "next" taps: board, synthetic views, camera solve, save
+    assert [k for k, _res, _err in r["calibration"]] == ["board", "capture", "solve", "save"]
+    assert all(res and not err for _k, res, err in r["calibration"]), r["calibration"]
+    assert r["calibration_taps"] == 4
+    assert (tmp_path / "camera.json").is_file()
     assert r["after_wrong_pin"] == "pin" and r["wrong_message"] == "Wrong PIN"
     with ProfileStore(tmp_path / "p.db") as store:
         assert store.verify_pin("2468") and not store.verify_pin("1111")

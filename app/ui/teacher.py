@@ -148,7 +148,8 @@ class TeacherScreen(Screen):
 
         right = GridLayout(cols=2, spacing=dp(10), size_hint_x=None, width=dp(420), row_default_height=dp(96),
                            row_force_default=True)
-        right.add_widget(IconButton("calibration", t("calibration"), on_press=lambda: app.go("calibration")))
+        self.calibration_button = IconButton("calibration", t("calibration"), on_press=lambda: app.go("calibration"))
+        right.add_widget(self.calibration_button)
         right.add_widget(IconButton("projector", t("present_all"), on_press=app.present_all))
         right.add_widget(IconButton("export", t("export_video"), on_press=self.export_videos))
         right.add_widget(IconButton("export", t("export_packages"), on_press=self.export_packages))
