@@ -174,7 +174,8 @@ class StoryBeamApp(App):
         return True
 
     def new_story(self, arc: str) -> Story:
-        story = Story.new(arc)
+        # a stable default title (the home screen must not renumber stories as they change)
+        story = Story.new(arc, title=self.t("story_n", n=len(self.store.list_stories()) + 1))
         self.store.save_story(story)
         self.store.log_activity("new story", story.id, arc)
         self._edit(story)

@@ -122,7 +122,7 @@ class PlayScreen(Screen):
         self.play_button = IconButton("play", t("play"), on_press=self.toggle, size_hint_x=None, width=dp(100),
                                       background=[0.75, 0.95, 0.75, 1])
         bar.add_widget(self.play_button)
-        self.scrubber = Slider(min=0, max=max(self.player.duration, 0.01), value=0, cursor_size=(dp(44), dp(44)))
+        self.scrubber = Slider(min=0, max=max(self.player.duration, 0.01), value=0, cursor_size=(dp(56), dp(56)))
         self.scrubber.bind(value=self._scrubbed)
         self.player.on_time = self._time_changed
         bar.add_widget(self.scrubber)
