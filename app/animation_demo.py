@@ -169,7 +169,8 @@ def run_demo(cfg: DemoConfig) -> dict:
     proj_model = scaled_model(default_projector(), 640, 480)
     out_proj = scaled_model(default_projector(), cfg.width, cfg.height)
     same_size = (cfg.width, cfg.height) == (640, 480)
-    cam = SyntheticCamera(board, camera=cam_model, projector=proj_model, supersample=1)
+    # a bright projector (gain 0.9): the light must read on the paper in the camera view
+    cam = SyntheticCamera(board, camera=cam_model, projector=proj_model, supersample=1, projector_gain=0.9)
     poses = handheld_trajectory(board, n_frames, TrajectoryConfig(fps=cfg.fps, seed=cfg.seed, distance_m=0.55))
     T_pc = cam.proj_from_cam  # the rig's calibration (true values; see docs/animation.md)
     K, dist = cam.camera.K, cam.camera.dist

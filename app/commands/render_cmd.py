@@ -15,7 +15,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--view", choices=("projector", "camera", "overhead", "all"), default="camera",
                    help="which view goes into the video; 'all' puts the three side by side")
     p.add_argument("--still", type=int, metavar="N", help="render only up to frame N and save it as a PNG (see --png)")
-    p.add_argument("--png", type=Path, help="PNG path for --still")
+    p.add_argument("--png", type=Path, help="PNG path for --still (with --view all, also <name>_<view>.png per view)")
     p.add_argument("--seconds", type=float, default=10.0, help="animation length (default 10)")
     p.add_argument("--fps", type=float, default=30.0)
     p.add_argument("--size", default="640x480", help="frame size WxH (default 640x480)")
@@ -48,6 +48,8 @@ def run(args: argparse.Namespace) -> int:
     cfg = DemoConfig(seconds=args.seconds, fps=args.fps, width=w, height=h, character=args.character,
                      view=args.view, video=None if args.still is not None else args.out,
                      json_path=args.json_out, index_dir=args.index_dir, still_frame=args.still, still_png=args.png)
+    if args.still is not None and args.view == "all":  # also each view on its own
+        cfg.stills = {v: args.png.with_name(f"{args.png.stem}_{v}{args.png.suffix}") for v in ("camera", "projector", "overhead")}
     report = run_demo(cfg)
     target = args.png if args.still is not None else args.out
     print(f"wrote {target} ({report['frames']} frames rendered, character render median "
