@@ -343,7 +343,8 @@ class EditorScreen(Screen):
             def pick(clip=clip):
                 view.dismiss()
                 self._edit(lambda ed: ed.set_motion(self.scene.id, character.id, clip.label, clip.trial))
-            grid.add_widget(IconButton(icon, clip.trial, on_press=pick, font_size=dp(12),
+            name = t(f"motion_{clip.label}") if clip.label in MOTION_COLOURS else clip.label
+            grid.add_widget(IconButton(icon, f"{name}  {clip.trial}", on_press=pick, font_size=dp(13),
                                        icon_colour=list(MOTION_COLOURS.get(clip.label, (0.4, 0.4, 0.4))),
                                        selected=clip.trial == character.motion.clip_id))
         if not clips:
