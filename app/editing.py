@@ -13,9 +13,8 @@ import copy
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from app.story import (ARCS, BACKGROUNDS, CHARACTER_KINDS, MARK_KINDS, MAX_CHARACTERS_PER_SCENE,
-                       MAX_SCENES, Character, Mark, MotionChoice, Scene, Story, StoryError, _path_point,
-                       new_id)
+from app.story import (BACKGROUNDS, CHARACTER_KINDS, MARK_KINDS, MAX_CHARACTERS_PER_SCENE, MAX_SCENES,
+                       Character, Mark, MotionChoice, Scene, Story, StoryError, _path_point, new_id)
 
 #: How many steps back a child can go; older steps are dropped.
 MAX_UNDO = 200
@@ -224,4 +223,4 @@ def _check_background(background: str) -> None:
         raise StoryError(f"unknown background '{background}' (expected one of {', '.join(BACKGROUNDS)})")
 
 
-__all__ = ["StoryEditor", "MAX_UNDO", "ARCS"]
+__all__ = ["StoryEditor", "MAX_UNDO"]

@@ -125,7 +125,8 @@ class StoryBeamApp(App):
             self.sm.current = self.start_screen
         else:
             self.sm.current = "home"
-        self.sm.current_screen.refresh() if hasattr(self.sm.current_screen, "refresh") else None
+        if hasattr(self.sm.current_screen, "refresh"):  # the first screen gets no on_pre_enter
+            self.sm.current_screen.refresh()
         if self.storage_problem:
             Clock.schedule_once(lambda dt: self.show_message(self.t("storage_problem", why=self.storage_problem)), 0)
         return self.sm

@@ -19,7 +19,7 @@ from kivy.uix.widget import Widget
 
 from app.story import Story
 from app.ui.table_view import TableView
-from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
+from app.ui.widgets import BUTTON_DP, IconButton, filled
 
 FPS = 30
 
@@ -204,4 +204,4 @@ class ProjectorScreen(Screen):
         self.preview_button.selected = self.table.mode == "preview"
 
 
-__all__ = ["PlayScreen", "ProjectorScreen", "locate", "big_label"]
+__all__ = ["PlayScreen", "ProjectorScreen", "locate"]

@@ -172,8 +172,6 @@ class TableView(Widget):
                     Color(1.0, 0.55, 0.1, 1)
                     Ellipse(pos=(cx - badge_r * 1.25, cy - badge_r * 1.25), size=(badge_r * 2.5, badge_r * 2.5))
                 draw_character_badge(character.kind, cx, cy, badge_r)
-            if self.mode == "edit" and not scene.characters:
-                pass
 
     def _draw_path(self, character, badge_r: float) -> None:
         if len(character.path) < 2:
