@@ -35,6 +35,8 @@ import sqlite3
 import tempfile
 import time
 import zipfile
+import zlib
+from lzma import LZMAError
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
@@ -134,6 +136,31 @@ def _check_person_name(name: str, where: str) -> str:
     return name
 
 
+def _sqlite_problem(exc: BaseException) -> str:
+    """A user-facing reason for an SQLite failure (a full disk is not "damage")."""
+    name = getattr(exc, "sqlite_errorname", "")
+    if name == "SQLITE_FULL" or "disk is full" in str(exc) or isinstance(exc, OSError) and exc.errno in (28, 27):
+        return "the device storage is full; free some space (stories saved before are kept)"
+    if name in ("SQLITE_READONLY", "SQLITE_PERM", "SQLITE_CANTOPEN"):
+        return f"the file cannot be written ({exc})"
+    if name == "SQLITE_IOERR" or name.startswith("SQLITE_IOERR"):
+        return f"the storage reported an input/output error ({exc})"
+    return f"the database is damaged ({exc})"
+
+
+@contextlib.contextmanager
+def _as_storage_error(where: Path, action: str) -> Iterator[None]:
+    """Turn SQLite (and undecodable-text) failures into :class:`StorageError`, so a damaged
+    file or a full disk reaches the user as a message instead of a traceback. Found by
+    the robustness campaign (tests/test_robust_storage.py): corrupted pages raised
+    ``sqlite3.OperationalError``/``UnicodeDecodeError`` from reads, a full disk raised
+    ``sqlite3.OperationalError`` from saves."""
+    try:
+        yield
+    except (sqlite3.Error, UnicodeDecodeError) as exc:
+        raise StorageError(f"{where}: {action}: {_sqlite_problem(exc)}") from None
+
+
 def _atomic_write(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` so that a crash leaves the old file or the new one."""
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -168,13 +195,14 @@ class ProfileStore:
                 if fh.read(16) != SQLITE_HEADER:
                     raise StorageError(f"{path}: not a StoryBeam database (not an SQLite file, or its header is damaged)")
         path.parent.mkdir(parents=True, exist_ok=True)
-        conn = sqlite3.connect(str(path), isolation_level=None, timeout=5.0)
+        with _as_storage_error(path, "cannot open"):
+            conn = sqlite3.connect(str(path), isolation_level=None, timeout=5.0)
         try:
             self._configure_and_check(conn)
             self._migrate(conn)
-        except sqlite3.DatabaseError as exc:
+        except (sqlite3.Error, UnicodeDecodeError) as exc:
             conn.close()
-            raise StorageError(f"{path}: the database is damaged ({exc})") from None
+            raise StorageError(f"{path}: {_sqlite_problem(exc)}") from None
         except StorageError:
             conn.close()
             raise
@@ -223,13 +251,16 @@ class ProfileStore:
     @contextlib.contextmanager
     def _transaction(self) -> Iterator[sqlite3.Connection]:
         conn = self._conn
-        conn.execute("BEGIN IMMEDIATE")
-        try:
-            yield conn
-        except BaseException:
-            conn.execute("ROLLBACK")
-            raise
-        conn.execute("COMMIT")
+        with _as_storage_error(self.db_path, "not saved"):
+            conn.execute("BEGIN IMMEDIATE")
+            try:
+                yield conn
+                conn.execute("COMMIT")  # inside the try: a COMMIT can fail too (disk full)
+            except BaseException:
+                if conn.in_transaction:  # SQLite's advice after SQLITE_FULL/IOERR
+                    with contextlib.suppress(sqlite3.Error):
+                        conn.execute("ROLLBACK")
+                raise
 
     def close(self) -> None:
         """Close the database (checkpointing the WAL into the main file)."""
@@ -258,7 +289,8 @@ class ProfileStore:
             )
 
     def load_story(self, story_id: str) -> Story:
-        row = self._conn.execute("SELECT body FROM stories WHERE id = ?", (story_id,)).fetchone()
+        with _as_storage_error(self.db_path, f"story '{story_id}' cannot be read"):
+            row = self._conn.execute("SELECT body FROM stories WHERE id = ?", (story_id,)).fetchone()
         if row is None:
             raise StorageError(f"{self.db_path}: no story with id '{story_id}'")
         try:
@@ -267,13 +299,15 @@ class ProfileStore:
             raise StorageError(f"{self.db_path}: story '{story_id}' is damaged ({exc})") from None
 
     def has_story(self, story_id: str) -> bool:
-        return self._conn.execute("SELECT 1 FROM stories WHERE id = ?", (story_id,)).fetchone() is not None
+        with _as_storage_error(self.db_path, "stories cannot be read"):
+            return self._conn.execute("SELECT 1 FROM stories WHERE id = ?", (story_id,)).fetchone() is not None
 
     def list_stories(self) -> list[StorySummary]:
         """Saved stories, most recently changed first (summaries only: one damaged body
         does not hide the others)."""
-        rows = self._conn.execute(
-            "SELECT id, title, arc, scene_count, modified FROM stories ORDER BY modified DESC, id").fetchall()
+        with _as_storage_error(self.db_path, "the story list cannot be read"):
+            rows = self._conn.execute(
+                "SELECT id, title, arc, scene_count, modified FROM stories ORDER BY modified DESC, id").fetchall()
         return [StorySummary(*row) for row in rows]
 
     def delete_story(self, story_id: str) -> None:
@@ -308,7 +342,8 @@ class ProfileStore:
 
     # -- settings ---------------------------------------------------------------------
     def get_setting(self, key: str, default: str | None = None) -> str | None:
-        row = self._conn.execute("SELECT value FROM settings WHERE key = ?", (key,)).fetchone()
+        with _as_storage_error(self.db_path, "settings cannot be read"):
+            row = self._conn.execute("SELECT value FROM settings WHERE key = ?", (key,)).fetchone()
         return default if row is None else row[0]
 
     def set_setting(self, key: str, value: str) -> None:
@@ -453,6 +488,11 @@ class ProfileStore:
         return self.assets_dir
 
 
+#: What a damaged zip can raise while opening or inflating an entry (found by the package
+#: fuzzing in tests/test_robust_files.py: zlib.error and EOFError escaped before).
+_ZIP_READ_ERRORS = (zipfile.BadZipFile, OSError, RuntimeError, ValueError, EOFError, zlib.error, LZMAError)
+
+
 def read_package(zip_path: str | Path) -> tuple[Story, dict[str, bytes]]:
     """Read and fully validate a story package; returns the story and its assets by name.
 
@@ -473,7 +513,7 @@ def read_package(zip_path: str | Path) -> tuple[Story, dict[str, bytes]]:
         raise fail(f"package larger than {MAX_PACKAGE_BYTES // (1024 * 1024)} MB")
     try:
         zf = zipfile.ZipFile(zip_path)
-    except (zipfile.BadZipFile, OSError) as exc:
+    except _ZIP_READ_ERRORS as exc:
         raise fail(f"not a story package ({exc})") from None
     with zf:
         infos = zf.infolist()
@@ -505,14 +545,14 @@ def read_package(zip_path: str | Path) -> tuple[Story, dict[str, bytes]]:
             try:
                 with zf.open(info) as fh:
                     data = fh.read(MAX_ENTRY_BYTES + 1)
-            except (zipfile.BadZipFile, OSError, RuntimeError, ValueError) as exc:
+            except _ZIP_READ_ERRORS as exc:
                 raise fail(f"{info.filename} cannot be read ({exc})") from None
             if len(data) > MAX_ENTRY_BYTES or len(data) != info.file_size:
                 raise fail(f"{info.filename}: size does not match its header")
             contents[info.filename] = data
     try:
         manifest = json.loads(contents.pop("manifest.json"))
-    except ValueError as exc:
+    except (ValueError, RecursionError) as exc:  # RecursionError: "[[[[..." nested too deep
         raise fail(f"manifest.json is not JSON ({exc})") from None
     if not isinstance(manifest, dict) or manifest.get("format") != PACKAGE_FORMAT_NAME:
         raise fail("manifest.json is not a StoryBeam package manifest")
@@ -520,8 +560,8 @@ def read_package(zip_path: str | Path) -> tuple[Story, dict[str, bytes]]:
     if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= PACKAGE_FORMAT_VERSION:
         raise fail(f"package format {version!r} is not supported (this app reads 1 to {PACKAGE_FORMAT_VERSION})")
     listed = manifest.get("files")
-    if not isinstance(listed, list) or not all(isinstance(f, dict) for f in listed):
-        raise fail("manifest.json: 'files' must be a list of objects")
+    if not isinstance(listed, list) or not all(isinstance(f, dict) and isinstance(f.get("name"), str) for f in listed):
+        raise fail("manifest.json: 'files' must be a list of objects with a 'name'")
     listed_names = {f.get("name") for f in listed}
     if listed_names != set(contents) or len(listed) != len(contents):
         raise fail("manifest.json does not list exactly the files in the package")
@@ -531,7 +571,7 @@ def read_package(zip_path: str | Path) -> tuple[Story, dict[str, bytes]]:
             raise fail(f"{entry['name']}: size or checksum does not match the manifest")
     try:
         story = Story.from_dict(json.loads(contents.pop("story.json")))
-    except ValueError as exc:
+    except (ValueError, RecursionError) as exc:
         raise fail(f"story.json is not valid JSON ({exc})") from None
     except StoryError as exc:
         raise fail(f"story.json: {exc}") from None

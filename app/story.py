@@ -70,6 +70,17 @@ def _get(data: Any, key: str, where: str, kind: type | tuple[type, ...]) -> Any:
     return value
 
 
+def _finite(value: int | float, where: str) -> float:
+    """``float(value)``, refusing what cannot be one: JSON allows integers of any length,
+    and ``float(10**400)`` raises OverflowError (found by package fuzzing)."""
+    try:
+        number = float(value)
+    except OverflowError:
+        number = math.inf
+    _require(math.isfinite(number), where, "not a finite number")
+    return number
+
+
 def _check_text(value: str, where: str, max_chars: int = MAX_TITLE_CHARS) -> str:
     _require(isinstance(value, str), where, "expected text")
     _require(len(value) <= max_chars, where, f"longer than {max_chars} characters")
@@ -94,7 +105,7 @@ class Mark:
     def from_dict(cls, data: Any, where: str = "mark") -> "Mark":
         kind = _get(data, "kind", where, str)
         _require(kind in MARK_KINDS, f"{where}.kind", f"unknown mark '{kind}' (expected one of {', '.join(MARK_KINDS)})")
-        at = float(_get(data, "at", where, (int, float)))
+        at = _finite(_get(data, "at", where, (int, float)), f"{where}.at")
         _require(math.isfinite(at) and 0.0 <= at <= MAX_SCENE_SECONDS, f"{where}.at", "time out of range")
         return cls(kind, at)
 
@@ -178,7 +189,7 @@ class Character:
 def _path_point(p: Any, where: str) -> tuple[float, float, float]:
     _require(isinstance(p, (list, tuple)) and len(p) == 3, where, "expected [x, y, t]")
     _require(all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p), where, "expected numbers")
-    x, y, t = (float(v) for v in p)
+    x, y, t = (_finite(v, where) for v in p)
     _require(all(math.isfinite(v) for v in (x, y, t)), where, "not a finite number")
     tol = _EDGE_TOLERANCE_M
     _require(-tol <= x <= TABLE_WIDTH_M + tol and -tol <= y <= TABLE_DEPTH_M + tol, where,

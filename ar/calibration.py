@@ -43,6 +43,8 @@ from ar.geometry import look_at, make_transform, pixels_to_plane, pose_error, ro
 from ar.pose import solve_board_pose
 
 MIN_VIEW_POINTS = 8
+#: Calibration files are a few kB; anything over this is refused before it is read.
+MAX_CALIBRATION_BYTES = 1024 * 1024
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
@@ -52,7 +54,7 @@ def _as_array(data: dict, key: str, path: str | None, shape: tuple[int, ...] | N
         raise CalibrationError(f"missing key {key!r}", path)
     try:
         arr = np.asarray(data[key], dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: a 400-digit JSON integer
         raise CalibrationError(f"{key} must be numbers", path) from None
     if shape is not None and arr.shape != shape:
         raise CalibrationError(f"{key} must have shape {shape}, got {arr.shape}", path)
@@ -87,9 +89,21 @@ def validate_intrinsics(K: np.ndarray, dist: np.ndarray, image_size: Sequence[in
         raise CalibrationError(f"{what} dist_coeffs {dist.tolist()} are implausibly large", path)
 
 
+def _optional_dict(data: dict, key: str, path: str | None) -> dict:
+    """An optional diagnostic mapping (``per_view_errors``...): absent -> {}, else a dict."""
+    value = data.get(key, {})
+    if not isinstance(value, dict):
+        raise CalibrationError(f"{key} must be an object, got {type(value).__name__}", path)
+    return dict(value)
+
+
 def _read_json(path: str | Path) -> dict:
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_CALIBRATION_BYTES:
+            raise CalibrationError(f"file is {size / 2**20:.1f} MB, more than the "
+                                   f"{MAX_CALIBRATION_BYTES // 2**20} MB a calibration file can be", path)
         data = json.loads(path.read_text())
     except FileNotFoundError:
         raise CalibrationError("file not found", path) from None
@@ -97,6 +111,8 @@ def _read_json(path: str | Path) -> dict:
         raise CalibrationError(f"cannot read: {exc}", path) from None
     except json.JSONDecodeError as exc:
         raise CalibrationError(f"not valid JSON (line {exc.lineno}: {exc.msg})", path) from None
+    except RecursionError:
+        raise CalibrationError("not valid JSON (nested too deeply)", path) from None
     if not isinstance(data, dict):
         raise CalibrationError("expected a JSON object at top level", path)
     return data
@@ -135,8 +151,8 @@ class CameraCalibration:
         if rms < 0:
             raise CalibrationError(f"rms must be >= 0, got {rms}", p)
         validate_intrinsics(K, dist, size, p)
-        return cls(K, dist, (int(size[0]), int(size[1])), rms, dict(data.get("per_view_errors", {})),
-                   dict(data.get("rejected_views", {})), str(data.get("board", "")))
+        return cls(K, dist, (int(size[0]), int(size[1])), rms, _optional_dict(data, "per_view_errors", p),
+                   _optional_dict(data, "rejected_views", p), str(data.get("board", "")))
 
     @classmethod
     def load(cls, path: str | Path) -> "CameraCalibration":
@@ -194,8 +210,9 @@ class ProjectorCalibration:
         if np.linalg.norm(t) > 2.0:
             raise CalibrationError(f"proj_from_cam.t = {t.tolist()} m puts the projector over 2 m from the camera", p)
         rms = float(_as_array(data, "rms", p, ()))
-        return cls(K, dist, (int(size[0]), int(size[1])), R, t, rms, float(data.get("stereo_rms", 0.0)),
-                   dict(data.get("per_view_errors", {})), dict(data.get("rejected_views", {})))
+        stereo_rms = float(_as_array(data, "stereo_rms", p, ())) if "stereo_rms" in data else 0.0
+        return cls(K, dist, (int(size[0]), int(size[1])), R, t, rms, stereo_rms,
+                   _optional_dict(data, "per_view_errors", p), _optional_dict(data, "rejected_views", p))
 
     @classmethod
     def load(cls, path: str | Path) -> "ProjectorCalibration":
