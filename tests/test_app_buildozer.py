@@ -33,3 +33,5 @@ def test_requirements_only_have_python_for_android_recipes():
     assert spec["buildozer"]["warn_on_root"] == "0"
     assert "otf" in spec["app"]["source.include_exts"]
     assert (REPO / "main.py").is_file()  # python-for-android's entry point
+    for key in ("icon.filename", "presplash.filename"):
+        assert (REPO / spec["app"][key].replace("%(source.dir)s/", "")).is_file(), key
