@@ -28,7 +28,7 @@ from ar.boards import Board, DEFAULT_BOARD_SPEC
 from ar.calibration import (CameraCalibration, ProjectorCalibration, ProjectorCalibrationSequence,
                             calibrate_camera, calibrate_projector, extract_projector_view, extrinsics_error)
 from ar.closed_loop import LandingCheck
-from ar.filtering import TRACKING, PoseTracker
+from ar.filtering import TRACKING, PoseKalmanFilter, PoseOneEuroFilter, PoseTracker
 from ar.geometry import pose_error, rotation_angle_deg
 from ar.pose import estimate_board_pose
 from ar.synthetic import (Degradation, SyntheticCamera, TrajectoryConfig, calibration_poses,
@@ -68,6 +68,7 @@ class BenchConfig:
     landing_every: int = 5
     estimated_calibration: bool = True
     seed: int = 0
+    pose_filter: str = "kalman"  # or "one-euro"
     conditions: list[Condition] = field(default_factory=default_conditions)
 
 
@@ -136,7 +137,7 @@ def run_bench(cfg: BenchConfig, progress=None, examples: dict | None = None) -> 
     P = cam.projector
     renderer = ProjectorRenderer(P.width, P.height, Kp)
     landing = LandingCheck(renderer, board)
-    out: dict = {"conditions": {}, "calibration": calib_report, "board": str(board.spec),
+    out: dict = {"conditions": {}, "calibration": calib_report, "board": str(board.spec), "pose_filter": cfg.pose_filter,
                  "camera": {"size": list(cam.camera.size), "fx": float(cam.camera.K[0, 0])},
                  "frames_per_condition": cfg.frames}
     all_detect_ms, all_render_ms, clean_landing = [], [], []
@@ -145,7 +146,7 @@ def run_bench(cfg: BenchConfig, progress=None, examples: dict | None = None) -> 
         traj = TrajectoryConfig(**{**cond.trajectory.__dict__, "seed": cfg.seed})
         poses = handheld_trajectory(board, cfg.frames, traj)
         raw_tracker = PoseTracker(filter_enabled=False)
-        tracker = PoseTracker()
+        tracker = PoseTracker(pose_filter=PoseOneEuroFilter() if cfg.pose_filter == "one-euro" else PoseKalmanFilter())
         rot_e, trans_e, frot_e, ftrans_e, detect_ms, render_ms, land = [], [], [], [], [], [], []
         raw_pairs, filt_pairs = [], []
         detected = 0

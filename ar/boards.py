@@ -87,8 +87,8 @@ def _marker_params() -> "cv2.aruco.DetectorParameters":
     """ArUco detector settings for small, distant markers.
 
     Sampling 8 px per marker cell (default 4) when un-warping a candidate lets the
-    default board's 2 cm markers be read at 1 m with a 700 px focal length (measured on
-    synthetic far_1.0m frames: 6/20 -> 20/20 frames detected). Lowering
+    default board's 2 cm markers be read at 1 m with a 700 px focal length (the bench's
+    far_1.0m condition; see docs/ar.md). Lowering
     ``minMarkerPerimeterRate`` as well was tried and dropped: it lost corners on a
     sharp fronto-parallel print scan.
     """
@@ -226,7 +226,7 @@ class Board:
 
         Returns the image and the exact pixels-per-metre used (rounded so a square is a
         whole number of pixels, which keeps marker cells crisp). Pixel (u, v) covers board
-        point ((u + 0.5) / ppm - margin, (v + 0.5) / ppm - margin).
+        point ((u + 0.5) / ppm - m, (v + 0.5) / ppm - m) with m = ``texture_origin_m(ppm)``.
         """
         s = self.spec
         cell = s.square_m
@@ -248,9 +248,11 @@ class Board:
             pattern = self._cv_board.generateImage((w, h), marginSize=0, borderBits=1)
         sheet = np.full((h + 2 * margin_px, w + 2 * margin_px), 255, np.uint8)
         sheet[margin_px:margin_px + h, margin_px:margin_px + w] = pattern
-        # the margin was rounded to whole pixels: report it exactly
-        self.margin_m = margin_px / ppm
         return sheet, ppm
+
+    def texture_origin_m(self, px_per_m: float) -> float:
+        """Margin actually drawn by :meth:`texture` at the ppm it returned (whole pixels)."""
+        return round(self.margin_m * px_per_m) / px_per_m
 
 
 def write_board(board: Board, out: str | Path, dpi: int = 300) -> Path:

@@ -18,7 +18,7 @@ wander plus physiological tremor, like a rig held over a table.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -102,6 +102,7 @@ class SyntheticCamera:
         self.ambient = ambient
         self.projector_gain = projector_gain
         sheet, self.sheet_ppm = board.texture(board_px_per_m)
+        self.sheet_margin_m = board.texture_origin_m(self.sheet_ppm)
         self.sheet = (0.04 + 0.88 * sheet.astype(np.float32) / 255.0)  # ink and paper albedo
         self.table, self.table_ppm = make_table_texture()
         # table texture centred on the board centre
@@ -139,7 +140,7 @@ class SyntheticCamera:
         deg = degradation or Degradation()
         rng = rng or np.random.default_rng(0)
         px, py, valid = self.plane_points(T_cam_from_board)
-        m = self.board.margin_m
+        m = self.sheet_margin_m
         su = ((px + m) * self.sheet_ppm - 0.5).astype(np.float32)
         sv = ((py + m) * self.sheet_ppm - 0.5).astype(np.float32)
         sheet = cv2.remap(self.sheet, su, sv, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=-1.0)
@@ -241,7 +242,6 @@ class TrajectoryConfig:
     tremor_deg: float = 0.06  # 8-12 Hz physiological tremor, rotation
     tremor_m: float = 0.0004  # tremor, translation
     seed: int = 0
-    extra: dict = field(default_factory=dict)
 
 
 def _wander(t: np.ndarray, rng: np.random.Generator, freqs: tuple[float, float]) -> np.ndarray:

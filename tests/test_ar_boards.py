@@ -77,7 +77,7 @@ def test_texture_pixels_match_object_points(spec):
     sheet, ppm = board.texture(3000)
     det = board.detect(sheet)
     assert det is not None and det.n == det.total_points
-    expected = (det.object_points[:, :2] + board.margin_m) * ppm - 0.5
+    expected = (det.object_points[:, :2] + board.texture_origin_m(ppm)) * ppm - 0.5
     assert np.abs(expected - det.image_points).max() < 0.2
 
 
@@ -89,6 +89,6 @@ def test_checkerboard_orientation_survives_half_turn():
     det = board.detect(turned)
     assert det is not None
     h, w = sheet.shape
-    upright = (det.object_points[:, :2] + board.margin_m) * ppm - 0.5
+    upright = (det.object_points[:, :2] + board.texture_origin_m(ppm)) * ppm - 0.5
     expected = np.stack([w - 1 - upright[:, 0], h - 1 - upright[:, 1]], 1)
     assert np.abs(expected - det.image_points).max() < 0.2

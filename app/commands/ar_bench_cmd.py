@@ -18,6 +18,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="use the synthetic rig's true calibration instead of calibrating it first")
     p.add_argument("--examples", type=Path, help="write example frames (ar_*.png) into this folder")
     p.add_argument("--blur-sigma", type=float, default=1.5, help="Gaussian blur of the 'blur' condition, px (default 1.5)")
+    p.add_argument("--filter", choices=("kalman", "one-euro"), default="kalman",
+                   help="pose filter whose jitter is reported (default kalman)")
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=run)
 
@@ -43,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     spec = args.board or DEFAULT_BOARD_SPEC
     Board(spec)  # validate early, before the long run
     cfg = BenchConfig(frames=args.frames, board_spec=spec, estimated_calibration=not args.true_calibration,
-                      seed=args.seed, conditions=conditions)
+                      seed=args.seed, conditions=conditions, pose_filter=args.filter)
     examples = {} if args.examples else None
     with tqdm(total=args.frames * len(conditions), unit="frame", desc="ar-bench") as bar:
         result = run_bench(cfg, progress=bar.update, examples=examples)
