@@ -15,6 +15,7 @@ import numpy as np
 from .kinematics import global_transforms
 from .motion import Motion
 from .retarget import _min_rotation, sole_points
+from .rotations import axis_rotation
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -87,6 +88,21 @@ def lock_feet(motion: Motion, contact: np.ndarray, fade_frames: int = 3) -> Moti
         shift = (1 - pivot_toe)[:, None] * shift_h * w_h[:, None] + pivot_toe[:, None] * shift_t
         target = pos[:, ankle].copy()
         target[:, [0, 2]] += shift
+        # Both heel and toe down (a flat foot): also turn the foot about the vertical
+        # through the pinned toe so the heel stays on its spot too (bending the path
+        # turns the body, and the foot with it, while it stands).
+        both = np.minimum(w_h, w_t)
+        toe_now = soles[:, it][:, [0, 2]] + shift
+        heel_now = soles[:, ih][:, [0, 2]] + shift
+        v_now, v_want = heel_now - toe_now, anc_h - toe_now
+        ang = np.arctan2(v_now[:, 0], v_now[:, 1]) - np.arctan2(v_want[:, 0], v_want[:, 1])
+        ang = -np.angle(np.exp(1j * ang)) * both * (pivot_toe > 0.5)
+        yaw = axis_rotation("Y", ang)
+        rel = target[:, [0, 2]] - toe_now
+        c, sn = np.cos(ang), np.sin(ang)
+        target[:, 0] = toe_now[:, 0] + c * rel[:, 0] + sn * rel[:, 1]
+        target[:, 2] = toe_now[:, 1] - sn * rel[:, 0] + c * rel[:, 1]
+        foot_rot = yaw @ rot[:, ankle]
         l1 = float(np.linalg.norm(sk.joints[knee].offset))
         l2 = float(np.linalg.norm(sk.joints[ankle].offset))
         new_knee = two_bone_knee(pos[:, hip], target, pos[:, knee], l1, l2)
@@ -96,7 +112,25 @@ def lock_feet(motion: Motion, contact: np.ndarray, fade_frames: int = 3) -> Moti
         shin_now = np.einsum("tab,b->ta", g_knee_tmp, sk.joints[ankle].offset)
         g_knee = _min_rotation(shin_now, target - new_knee) @ g_knee_tmp
         tr = lambda m: np.swapaxes(m, -1, -2)
+        # Where the ankle really ends up (the target may be out of the leg's reach, e.g.
+        # at toe-off with the leg stretched behind): there the foot turns about the
+        # ankle so that the pinned sole point still lands on its spot — the ankle
+        # extends instead of the toe sliding.
+        shin_dir = target - new_knee
+        ankle_now = new_knee + l2 * shin_dir / np.maximum(np.linalg.norm(shin_dir, axis=1, keepdims=True), 1e-12)
+        g_foot = foot_rot
+        pin = np.where((pivot_toe > 0.5)[:, None], np.concatenate([anc_t, soles[:, it][:, 1:2]], axis=1)[:, [0, 2, 1]],
+                       np.concatenate([anc_h, soles[:, ih][:, 1:2]], axis=1)[:, [0, 2, 1]])
+        pin_point = np.where((pivot_toe > 0.5)[:, None], soles[:, it], soles[:, ih])
+        foot_vec = np.einsum("tab,tb->ta", yaw, pin_point - pos[:, ankle])  # ankle -> pinned point, turned
+        want = pin - ankle_now
+        weight = np.maximum(w_h, w_t)
+        turn = _min_rotation(foot_vec, want)
+        # only where the reach was short (elsewhere want == foot_vec up to rounding)
+        short = np.linalg.norm(ankle_now - target, axis=1) > 1e-6 * max(l1 + l2, 1e-9)
+        apply = short & (weight > 0)
+        g_foot = np.where(apply[:, None, None], turn @ g_foot, g_foot)
         out.rotations[:, hip] = tr(g_parent) @ g_hip
         out.rotations[:, knee] = tr(g_hip) @ g_knee
-        out.rotations[:, ankle] = tr(g_knee) @ rot[:, ankle]  # the foot keeps its orientation
+        out.rotations[:, ankle] = tr(g_knee) @ g_foot  # the foot keeps its orientation unless out of reach
     return out
