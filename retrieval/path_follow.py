@@ -1,9 +1,10 @@
 """Make a retargeted clip walk along a path a child drew on the table.
 
-The path is a 2-D polyline in board coordinates (metres). StoryBeam's motion world is
-Y up with the table at y = 0, and board point ``(x, y)`` is motion point
-``(X, Z) = (x, y)`` (board z points into the table; see ar/character_render.py for the
-full board <- motion transform).
+The path is a 2-D polyline on the table in metres. StoryBeam's motion world is Y up with
+the table at y = 0; it is the AR *scene frame* (ar/projector_view.py): origin at the
+board centre, X = board x, Z = board y (board z points into the table). So a path drawn
+in board coordinates becomes ``(X, Z) = (x - cx, y - cy)`` for the board centre
+``(cx, cy)`` (:func:`ar.character_render.board_path_to_scene`).
 
 How a clip is laid on the path (all IK-free):
 
@@ -34,7 +35,7 @@ from scipy.ndimage import gaussian_filter1d, uniform_filter1d
 
 from .errors import StoryBeamError
 from .foot_lock import lock_feet
-from .kinematics import positions, rest_positions
+from .kinematics import rest_positions
 from .motion import Motion
 from .retarget import contacts, skeleton_leg_length, sole_level, sole_points
 from .rotations import slerp_matrices
