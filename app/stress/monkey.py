@@ -1,0 +1,251 @@
+"""Random-touch monkey test of the real app under offscreen Kivy.
+
+:func:`run_monkey` starts ``python -m app.stress.monkey DB OUT SECONDS SEED`` (one Kivy app
+per process: Kivy keeps global window state) and reads its ``result.json``. Inside, the
+real :class:`app.ui.app.StoryBeamApp` runs with a scheduled "monkey" that, every few
+frames, taps a random button of the current screen or open popup (60 %), taps a random
+point (15 %), draws a random finger stroke (20 %) or presses Back/Escape (5 %).
+
+Checked:
+
+* **crashes**: an exception escaping a touch handler or a scheduled callback (the
+  monkey wraps each action; Kivy's ExceptionManager catches the rest and counts them);
+* **stuck states**: the main loop stops ticking for 10 s (a watchdog thread), a popup
+  stays open for over 20 s, or a screen other than home offers no button at all;
+* **lost stories**: every ``save_story``/``delete_story`` the app makes is recorded;
+  at the end the profile is reopened and every story must equal its last save, and
+  deleted ones must be gone.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+import traceback
+from pathlib import Path
+
+#: Seconds between monkey actions (a busy child taps a few times a second).
+ACTION_INTERVAL_S = 0.08
+
+
+def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_s: float = 120.0) -> dict:
+    """Run the monkey for ``seconds`` in a subprocess; returns its summary."""
+    work.mkdir(parents=True, exist_ok=True)
+    db = work / "monkey.db"
+    out = work / "out"
+    for suffix in ("", "-wal", "-shm"):
+        Path(f"{db}{suffix}").unlink(missing_ok=True)
+    env = dict(os.environ, KIVY_NO_ARGS="1", SDL_VIDEODRIVER="offscreen",
+               KIVY_HOME=str(work / "kivy_home"))
+    cmd = [sys.executable, "-m", "app.stress.monkey", str(db), str(out), str(seconds), str(seed)]
+    try:
+        done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=seconds + timeout_margin_s,
+                              cwd=str(Path(__file__).resolve().parents[2]))
+        rc = done.returncode
+        tail = (done.stdout + done.stderr)[-2000:]
+    except subprocess.TimeoutExpired:
+        rc, tail = None, "the app did not finish (killed after the time limit)"
+    result_file = out / "result.json"
+    if not result_file.is_file():
+        return {"crashes": 1, "hangs": int(rc is None), "stuck": 0, "stories_lost": 0, "actions": 0,
+                "failures": 1, "error": f"no result (exit {rc}): {tail}"}
+    result = json.loads(result_file.read_text())
+    result["exit_code"] = rc
+    if rc not in (0, None) and not result.get("crashes"):
+        result["crashes"] = 1
+        result.setdefault("crash_examples", []).append(f"app exited {rc}: {tail[-800:]}")
+    result["failures"] = result.get("crashes", 0) + result.get("stuck", 0) + result.get("stories_lost", 0) \
+        + result.get("hangs", 0)
+    return result
+
+
+# ============================================================================ inside the app process
+
+
+def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no cover - runs in a subprocess
+    import random
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+    from app.ui.env import prepare_kivy_env
+
+    prepare_kivy_env(headless=True, width=1280, height=800)
+    from kivy.base import ExceptionHandler, ExceptionManager
+    from kivy.clock import Clock
+    from kivy.core.window import Window
+    from kivy.tests.common import UnitTestTouch
+    from kivy.uix.behaviors import ButtonBehavior
+    from kivy.uix.modalview import ModalView
+
+    from app.services import MotionCatalog
+    from app.storage import ProfileStore, StorageError
+    from app.ui.app import StoryBeamApp
+
+    out.mkdir(parents=True, exist_ok=True)
+    rng = random.Random(seed)
+    report: dict = {"seconds": seconds, "seed": seed, "actions": 0, "taps": 0, "strokes": 0, "backs": 0,
+                    "crashes": 0, "crash_examples": [], "stuck": 0, "stuck_examples": [], "hangs": 0,
+                    "screens_seen": {}, "saves": 0, "deletes": 0, "stories_lost": 0, "popups_seen": 0}
+    saved: dict[str, dict | None] = {}  # last saved body per story id (None: deleted)
+    heartbeat = [time.monotonic()]
+    finished = threading.Event()
+
+    def write_report() -> None:
+        (out / "result.json").write_text(json.dumps(report, indent=1, default=str))
+
+    def watchdog() -> None:
+        while not finished.wait(1.0):
+            if time.monotonic() - heartbeat[0] > 10.0:
+                report["hangs"] += 1
+                report["stuck_examples"].append("main loop did not tick for 10 s")
+                write_report()
+                os._exit(3)
+
+    class CountingHandler(ExceptionHandler):
+        def handle_exception(self, exc):
+            report["crashes"] += 1
+            if len(report["crash_examples"]) < 10:
+                report["crash_examples"].append("".join(traceback.format_exception(exc))[-1500:])
+            return ExceptionManager.PASS
+
+    ExceptionManager.add_handler(CountingHandler())
+
+    def buttons(root) -> list:
+        found, stack = [], [root]
+        while stack:
+            w = stack.pop()
+            if isinstance(w, ButtonBehavior) and not getattr(w, "disabled", False) and w.get_root_window() is not None:
+                found.append(w)
+            stack.extend(w.children)
+        return found
+
+    def tap_at(x: float, y: float) -> None:
+        touch = UnitTestTouch(x, y)
+        touch.touch_down()
+        touch.touch_up()
+
+    def stroke() -> None:
+        w, h = Window.size
+        x, y = rng.uniform(0, w), rng.uniform(0, h)
+        touch = UnitTestTouch(x, y)
+        touch.touch_down()
+        for _ in range(rng.randrange(3, 25)):
+            x = min(max(0, x + rng.uniform(-60, 60)), w)
+            y = min(max(0, y + rng.uniform(-60, 60)), h)
+            touch.touch_move(x, y)
+        touch.touch_up()
+
+    class MonkeyApp(StoryBeamApp):
+        def build(self):
+            root = super().build()
+            real_save, real_delete = self.store.save_story, self.store.delete_story
+
+            def save_story(story):
+                real_save(story)  # raises on failure: then nothing was saved
+                saved[story.id] = story.to_dict()
+                report["saves"] += 1
+
+            def delete_story(story_id):
+                real_delete(story_id)
+                saved[story_id] = None
+                report["deletes"] += 1
+
+            self.store.save_story, self.store.delete_story = save_story, delete_story
+            return root
+
+        def on_start(self):
+            self._t0 = time.monotonic()
+            self._modal_since: dict[int, float] = {}
+            Clock.schedule_interval(self._tick, 0)
+            Clock.schedule_once(self._act, 0.5)
+
+        def _tick(self, _dt):
+            heartbeat[0] = time.monotonic()
+
+        def _popups(self) -> list:
+            return [w for w in Window.children if isinstance(w, ModalView)]
+
+        def _check_stuck(self) -> None:
+            now = time.monotonic()
+            popups = self._popups()
+            alive = {id(p) for p in popups}
+            for p in popups:
+                if id(p) not in self._modal_since:
+                    self._modal_since[id(p)] = now
+                    report["popups_seen"] += 1
+                elif now - self._modal_since[id(p)] > 20.0:
+                    report["stuck"] += 1
+                    report["stuck_examples"].append(f"a popup stayed open 20 s on {self.sm.current}")
+                    p.dismiss()
+            self._modal_since = {k: v for k, v in self._modal_since.items() if k in alive}
+            if self.sm.current != "home" and not popups and not buttons(self.sm.current_screen):
+                report["stuck"] += 1
+                report["stuck_examples"].append(f"screen {self.sm.current} has no button")
+                self.go_home()
+
+        def _act(self, _dt):
+            if time.monotonic() - self._t0 > seconds:
+                self.stop()
+                return
+            screen = self.sm.current
+            report["screens_seen"][screen] = report["screens_seen"].get(screen, 0) + 1
+            try:
+                self._check_stuck()
+                r = rng.random()
+                popups = self._popups()
+                if r < 0.60:
+                    pool = buttons(popups[-1]) if popups else buttons(self.sm.current_screen)
+                    if pool:
+                        b = rng.choice(pool)
+                        x, y = b.to_window(*b.center)
+                        tap_at(x + rng.uniform(-3, 3), y + rng.uniform(-3, 3))
+                        report["taps"] += 1
+                elif r < 0.75:
+                    w, h = Window.size
+                    tap_at(rng.uniform(0, w), rng.uniform(0, h))
+                    report["taps"] += 1
+                elif r < 0.95:
+                    stroke()
+                    report["strokes"] += 1
+                else:
+                    Window.dispatch("on_keyboard", 27, 0, None, [])
+                    report["backs"] += 1
+            except Exception as exc:  # noqa: BLE001 - a crash of the app under a touch
+                report["crashes"] += 1
+                if len(report["crash_examples"]) < 10:
+                    report["crash_examples"].append(f"on {screen}: " + "".join(traceback.format_exception(exc))[-1500:])
+            report["actions"] += 1
+            Clock.schedule_once(self._act, ACTION_INTERVAL_S)
+
+    threading.Thread(target=watchdog, daemon=True).start()
+    app = MonkeyApp(db, lang=rng.choice(["en", "ja"]), catalog=MotionCatalog(build_index=False))
+    try:
+        app.run()
+    except Exception as exc:  # noqa: BLE001
+        report["crashes"] += 1
+        report["crash_examples"].append("app.run: " + "".join(traceback.format_exception(exc))[-1500:])
+    finally:
+        finished.set()
+    # The app may have moved to a rescue profile if the first was refused; check the one it used.
+    used_db = Path(getattr(app, "db_path", db))
+    try:
+        with ProfileStore(used_db) as store:
+            present = {s.id for s in store.list_stories()}
+            for sid, body in saved.items():
+                if body is None:
+                    report["stories_lost"] += sid in present  # a deleted story came back
+                elif sid not in present or store.load_story(sid).to_dict() != body:
+                    report["stories_lost"] += 1
+            report["stories_in_profile"] = len(present)
+    except StorageError as exc:
+        report["stories_lost"] += sum(1 for b in saved.values() if b is not None)
+        report["crash_examples"].append(f"profile does not reopen: {exc}")
+    report["stories_saved"] = sum(1 for b in saved.values() if b is not None)
+    write_report()
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(_main(Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4])))
