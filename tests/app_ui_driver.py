@@ -244,6 +244,23 @@ def teacher_steps(app):
     yield lambda: result.update(calibration=[[st.key, st.result, st.error] for st in calib().wizard.steps],
                                 calibration_taps=state["taps"])
     yield lambda: app.go("teacher")
+    teacher = lambda: app.sm.get_screen("teacher")  # noqa: E731
+    yield lambda: tap(teacher().action_buttons["activity_log"])
+    yield lambda: tap(teacher().action_buttons["export_packages"])
+    yield lambda: tap(teacher().action_buttons["export_video"])
+
+    def wait_video():
+        if teacher().status.text == "..." and state["polls"] < 1200:
+            state["polls"] += 1
+            return "again"
+    yield wait_video
+    yield lambda: result.update(video_status=teacher().status.text)
+    yield lambda: tap(teacher().action_buttons["export_log"])
+    yield lambda: result.update(export_dir=str(app.export_dir), log_on=app.store.activity_logging)
+    yield lambda: tap(teacher().action_buttons["present_all"])
+    yield lambda: result.update(after_present=app.sm.current,
+                                presented_scenes=len(app.editor.story.scenes) if app.editor else 0)
+    yield lambda: app.go("teacher")
     yield lambda: app.sm.get_screen("teacher").leave()
     yield lambda: app.go("pin")
     for key in "1111":
@@ -337,6 +354,11 @@ class DriverApp(StoryBeamApp):
 if __name__ == "__main__":
     lang = os.environ.get("STORYBEAM_TEST_LANG", "en")
     demo = SCENARIO in ("editor", "language", "play3d")
+    if SCENARIO == "teacher":  # one saved story for the exports (made outside the UI)
+        from app.demo import demo_story
+        from app.storage import ProfileStore
+        with ProfileStore(DB) as store:
+            store.save_story(demo_story())
     factory = None
     if SCENARIO == "play3d":
         def factory():

@@ -146,6 +146,15 @@ def test_teacher_pin_pad_sets_then_checks_the_pin(tmp_path):
     assert all(res and not err for _k, res, err in r["calibration"]), r["calibration"]
     assert r["calibration_taps"] == 4
     assert (tmp_path / "camera.json").is_file()
+    # exports by touch: packages, videos, activity log (switched on first), then present all
+    exports = Path(r["export_dir"])
+    assert r["log_on"]
+    assert (exports / "story_demo-robot-cat.zip").is_file()
+    assert (exports / "story_demo-robot-cat.mp4").stat().st_size > 1000, r["video_status"]
+    rows = (exports / "activity.csv").read_text(encoding="utf-8").splitlines()
+    assert rows[0] == "time_utc,event,story_id,detail"
+    assert {row.split(",")[1] for row in rows[1:]} >= {"export packages", "export videos"}
+    assert r["after_present"] == "projector" and r["presented_scenes"] == 3
     assert r["after_wrong_pin"] == "pin" and r["wrong_message"] == "Wrong PIN"
     with ProfileStore(tmp_path / "p.db") as store:
         assert store.verify_pin("2468") and not store.verify_pin("1111")

@@ -150,14 +150,19 @@ class TeacherScreen(Screen):
                            row_force_default=True)
         self.calibration_button = IconButton("calibration", t("calibration"), on_press=lambda: app.go("calibration"))
         right.add_widget(self.calibration_button)
-        right.add_widget(IconButton("projector", t("present_all"), on_press=app.present_all))
-        right.add_widget(IconButton("export", t("export_video"), on_press=self.export_videos))
-        right.add_widget(IconButton("export", t("export_packages"), on_press=self.export_packages))
-        right.add_widget(IconButton("add", t("import_package"), on_press=self.import_packages))
-        right.add_widget(IconButton("export", t("export_log"), on_press=self.export_log))
+        self.action_buttons = {
+            "present_all": IconButton("projector", t("present_all"), on_press=app.present_all),
+            "export_video": IconButton("export", t("export_video"), on_press=self.export_videos),
+            "export_packages": IconButton("export", t("export_packages"), on_press=self.export_packages),
+            "import_package": IconButton("add", t("import_package"), on_press=self.import_packages),
+            "export_log": IconButton("export", t("export_log"), on_press=self.export_log),
+        }
         log_on = store.activity_logging
-        right.add_widget(IconButton("teacher", f"{t('activity_log')}: {t('on') if log_on else t('off')}",
-                                    on_press=self.toggle_log, selected=log_on, font_size=dp(13)))
+        self.action_buttons["activity_log"] = IconButton(
+            "teacher", f"{t('activity_log')}: {t('on') if log_on else t('off')}", on_press=self.toggle_log,
+            selected=log_on, font_size=dp(13))
+        for button in self.action_buttons.values():
+            right.add_widget(button)
         self.status = Label(text="", color=(0.1, 0.3, 0.1, 1), font_size=dp(14), halign="left", valign="top")
         self.status.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
         right.add_widget(self.status)
@@ -213,6 +218,7 @@ class TeacherScreen(Screen):
                 paths.append(app.store.export_package(summary.id, app.export_dir / f"story_{summary.id}.zip"))
             except StorageError as exc:
                 self._report(str(exc))
+        app.store.log_activity("export packages", detail=str(len(paths)))
         self._report(app.t("exported_to", path=f"{app.export_dir} ({len(paths)})"))
 
     def import_packages(self) -> None:
@@ -230,18 +236,25 @@ class TeacherScreen(Screen):
         self._report(f"{inbox}: {done} imported" + ("\n" + "\n".join(problems) if problems else ""))
 
     def export_videos(self) -> None:
-        """Render one MP4 per story with ``storybeam render`` in a background process."""
+        """Write one MP4 per story (app.video_export) on a worker thread."""
         app = App.get_running_app()
         exporter = app.video_exporter
         if exporter is None:
-            return self._report(app.t("not_available", why="storybeam render"))
-        summaries = app.store.list_stories()
+            return self._report(app.t("not_available", why="ffmpeg"))
+        # read the stories here: the SQLite connection belongs to the UI thread
+        stories, lines = [], []
+        for summary in app.store.list_stories():
+            try:
+                stories.append(app.store.load_story(summary.id))
+            except StorageError as exc:
+                lines.append(str(exc))
+        app.store.log_activity("export videos", detail=str(len(stories)))
+        export_dir = app.export_dir
 
         def work():
-            lines = []
-            for s in summaries:
+            for story in stories:
                 try:
-                    lines.append(str(exporter(app.store.load_story(s.id), app.export_dir / f"story_{s.id}.mp4")))
+                    lines.append(str(exporter(story, export_dir / f"story_{story.id}.mp4")))
                 except StoryBeamError as exc:
                     lines.append(str(exc))
             Clock.schedule_once(lambda dt: self._report("\n".join(lines)), 0)
