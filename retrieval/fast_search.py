@@ -39,6 +39,9 @@ from .runlength import rle_is_exact, run_length_encode
 if HAVE_NUMBA:
     from .runlength import diff_cost, rle_dtw_raw
 
+#: "exact": the seed's distance; "runs": the block-corner run-length approximation.
+MODES = ("exact", "runs")
+
 
 @dataclass
 class PackedCodes:
@@ -163,17 +166,23 @@ if HAVE_NUMBA:
         return best / (nx + ny)
 
     @numba.njit(cache=True, nogil=True)
-    def _row_mins(q_dv, c_dv, F, absdiff, shift, mask, out):  # pragma: no cover
+    def _row_mins(q_dv, c_dv, F, absdiff, shift, mask, out, out_col):  # pragma: no cover
+        """Per distinct query code its cheapest candidate code (out) and per distinct
+        candidate code its cheapest query code (out_col)."""
+        for v in range(c_dv.shape[0]):
+            out_col[v] = np.inf
         for u in range(q_dv.shape[0]):
             m = np.inf
             for v in range(c_dv.shape[0]):
                 d = diff_cost(q_dv[u], c_dv[v], F, absdiff, shift, mask)
                 if d < m:
                     m = d
+                if d < out_col[v]:
+                    out_col[v] = d
             out[u] = m
 
     @numba.njit(cache=True, nogil=True)
-    def _plain_dtw_raw(a, b, F, absdiff, shift, mask, lo, hi, rest_row, limit, norm, prev, cur):  # pragma: no cover
+    def _plain_dtw_raw(a, b, F, absdiff, shift, mask, lo, hi, rest_row, rest_col, limit, norm, prev, cur):  # pragma: no cover
         """Row-by-row look-up DTW with band limits and early abandoning: the numbers of
         :func:`retrieval.dtw._nb_dtw_table` with the difference table."""
         nx, ny = a.shape[0], b.shape[0]
@@ -200,12 +209,55 @@ if HAVE_NUMBA:
                         best = cur[j - 1]
                 v = diff_cost(ai, b[j], F, absdiff, shift, mask) + best
                 cur[j] = v
-                if v < m:
-                    m = v
-            if (m + rest_row[i]) / norm > limit:
+                x = rest_col[j]
+                if rest_row[i] > x:
+                    x = rest_row[i]
+                x += v
+                if x < m:
+                    m = x
+            if m / norm > limit:
                 return inf
             prev, cur = cur, prev
         return prev[ny - 1]
+
+    @numba.njit(cache=True, nogil=True)
+    def _runs_dtw_raw(a_val, a_len, b_val, b_len, F, absdiff, shift, mask, rest_run, limit, norm, prev, cur):  # pragma: no cover
+        """Block-corner DTW over runs (the ``"runs"`` approximation): a diagonal step
+        through block (p, q) costs c·max(h_p, w_q), a vertical one c·h_p, a horizontal one
+        c·w_q. Each is the cost of a real warping path, so the result is >= the exact DTW
+        (an upper bound that equals it when every run has length 1)."""
+        kx, ky = a_val.shape[0], b_val.shape[0]
+        inf = np.inf
+        for q in range(ky):
+            prev[q] = inf
+        for p in range(kx):
+            h = a_len[p]
+            ap = a_val[p]
+            m = inf
+            for q in range(ky):
+                w = b_len[q]
+                c = diff_cost(ap, b_val[q], F, absdiff, shift, mask)
+                if p == 0 and q == 0:
+                    v = c * (h if h > w else w)
+                else:
+                    v = inf
+                    if p > 0 and q > 0:
+                        v = prev[q - 1] + c * (h if h > w else w)
+                    if p > 0:
+                        x = prev[q] + c * h
+                        if x < v:
+                            v = x
+                    if q > 0:
+                        x = cur[q - 1] + c * w
+                        if x < v:
+                            v = x
+                cur[q] = v
+                if v < m:
+                    m = v
+            if (m + rest_run[p]) / norm > limit:
+                return inf
+            prev, cur = cur, prev
+        return prev[ky - 1]
 
     @numba.njit(cache=True, nogil=True)
     def _band_limits_nb(nx, ny, band, lo, hi):  # pragma: no cover
@@ -292,26 +344,60 @@ if HAVE_NUMBA:
         rm = np.empty(d1 - d0)
         rest_run = np.empty(nruns)
         rest_row = np.empty(nx)
+        rest_col = np.empty(big + 2)
+        cmin = np.empty(4096 if ldv.shape[0] > 4096 else ldv.shape[0] + 1)
+        # without exact arithmetic the bound sums may round differently from the DP: shrink them
+        safety = 1.0 if use_rle >= 1 else 1.0 - 1e-9
         pruned = 0
         abandoned = 0
         completed = 0
+        # Exact mode with exact arithmetic: the block-corner DTW of a few best-bound
+        # candidates is an upper bound of their exact distance, so its k-th smallest value
+        # bounds the k-th best distance from above before any exact DTW has run.
+        cap = inf
+        if use_rle == 1 and band < 0 and ncand >= k:
+            m_ub = k + 2 if k + 2 < ncand else ncand
+            ubs = np.empty(m_ub)
+            for pos in range(m_ub):
+                c = order[pos]
+                ubs[pos] = _runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
+                                         F, absdiff, shift, mask, np.zeros(nruns), inf, 1.0,
+                                         row_prev, row_next) / float(nx + lco[c + 1] - lco[c])
+            ubs.sort()
+            cap = ubs[k - 1]
         for pos in range(ncand):
             c = order[pos]
             thr = out_dist[k - 1]
+            if cap < thr:
+                thr = cap
             if lbs[c] > thr:
                 pruned += ncand - pos
                 break
             b0, b1 = lco[c], lco[c + 1]
             ny = b1 - b0
             norm = float(nx + ny)
-            _row_mins(qdv[d0:d1], ldv[ldo[c]:ldo[c + 1]], F, absdiff, shift, mask, rm)
+            nvb = ldo[c + 1] - ldo[c]
+            if cmin.shape[0] < nvb:
+                cmin = np.empty(nvb)
+            _row_mins(qdv[d0:d1], ldv[ldo[c]:ldo[c + 1]], F, absdiff, shift, mask, rm, cmin)
             acc = 0.0
             for p in range(nruns - 1, -1, -1):
-                rest_run[p] = acc
+                rest_run[p] = acc * safety
                 acc += rm[qrd[r0 + p]] * qrl[r0 + p]
-            if use_rle and band < 0:
+            acc = 0.0
+            j = ny - 1
+            for p in range(lro[c + 1] - lro[c] - 1, -1, -1):
+                per = cmin[lrd[lro[c] + p]]
+                for s in range(lrl[lro[c] + p]):
+                    rest_col[j] = acc * safety
+                    acc += per
+                    j -= 1
+            if use_rle == 2 and band < 0:
+                raw = _runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
+                                    F, absdiff, shift, mask, rest_run, thr, norm, row_prev, row_next)
+            elif use_rle == 1 and band < 0:
                 raw = rle_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
-                                  F, absdiff, shift, mask, rest_run, thr, norm,
+                                  F, absdiff, shift, mask, rest_run, rest_col, thr, norm,
                                   row_prev, row_next, left, right, buf_a, buf_b, dq)
             else:
                 i = nx - 1
@@ -319,18 +405,19 @@ if HAVE_NUMBA:
                     per = rm[qrd[r0 + p]]
                     acc = rest_run[p]
                     for s in range(qrl[r0 + p]):
-                        rest_row[i] = acc
+                        rest_row[i] = acc * safety
                         acc += per
                         i -= 1
                 _band_limits_nb(nx, ny, band, lo, hi)
-                raw = _plain_dtw_raw(qc[a0:a1], lc[b0:b1], F, absdiff, shift, mask, lo, hi, rest_row, thr, norm,
+                raw = _plain_dtw_raw(qc[a0:a1], lc[b0:b1], F, absdiff, shift, mask, lo, hi, rest_row, rest_col, thr, norm,
                                      row_prev, row_next)
             if raw == inf:
                 abandoned += 1
                 continue
             completed += 1
             d = raw / norm
-            if d < thr or (d == thr and c < out_idx[k - 1]):
+            kth = out_dist[k - 1]
+            if d < kth or (d == kth and c < out_idx[k - 1]):
                 t = k - 1
                 while t > 0 and (out_dist[t - 1] > d or (out_dist[t - 1] == d and out_idx[t - 1] > c)):
                     out_dist[t] = out_dist[t - 1]
@@ -372,9 +459,15 @@ class FastSearcher:
     """
 
     def __init__(self, library: Sequence[np.ndarray], table: DiffTable, band: int | None = None,
-                 backend: str = "auto", run_length: bool = True, use_bounds: bool = True):
+                 backend: str = "auto", run_length: bool = True, use_bounds: bool = True,
+                 mode: str = "exact"):
         if band is not None and band < 0:
             raise DTWError(f"band must be >= 0, got {band}")
+        if mode not in MODES:
+            raise DTWError(f"unknown search mode {mode!r} (choose from {', '.join(MODES)})")
+        if mode == "runs" and band is not None:
+            raise DTWError("the run-length approximation ('runs' mode) has no band")
+        self.mode = mode
         self.table = table
         self.band = band
         self.backend = _resolve_backend(backend)
@@ -397,8 +490,11 @@ class FastSearcher:
     def index_bytes_per_clip(self) -> float:
         return self.library.nbytes / len(self.library)
 
-    def _rle_ok(self, longest_query: int) -> bool:
-        return self.run_length and rle_is_exact(self.table.F, self._longest + longest_query)
+    def _kernel(self, longest_query: int) -> int:
+        """0: plain DP, 1: exact run-length block DP, 2: block-corner approximation."""
+        if self.mode == "runs":
+            return 2
+        return int(self.run_length and rle_is_exact(self.table.F, self._longest + longest_query))
 
     def search(self, queries: Sequence[np.ndarray], k: int = 1, parallel: bool = True) -> SearchResult:
         """k nearest library clips for each query code sequence (a batch)."""
@@ -411,7 +507,7 @@ class FastSearcher:
         out_idx = np.full((nq, k), -1, np.int64)
         out_dist = np.full((nq, k), np.inf)
         stats = np.zeros((nq, 4), np.int64)
-        use_rle = self._rle_ok(int(packed.lengths.max()))
+        use_rle = self._kernel(int(packed.lengths.max()))
         band = -1 if self.band is None else int(self.band)
         Q, L = packed.arrays(), self.library.arrays()
         t = self.table
@@ -458,9 +554,14 @@ class FastSearcher:
                     pruned = len(order) - pos
                     break
                 b = lib.sequence(c)
-                lo, hi = band_limits(len(a), len(b), self.band)
-                cost = self.table.lookup(a[:, None], b[None, :])
-                d = float(_np_dtw_cost(cost, lo, hi)) / (len(a) + len(b))
+                if self.mode == "runs":
+                    av, al = run_length_encode(a)
+                    bv, bl = run_length_encode(b)
+                    raw = runs_dtw_numpy(self.table.lookup(av[:, None], bv[None, :]), al, bl)
+                else:
+                    lo, hi = band_limits(len(a), len(b), self.band)
+                    raw = _np_dtw_cost(self.table.lookup(a[:, None], b[None, :]), lo, hi)
+                d = float(raw) / (len(a) + len(b))
                 best = sorted(best + [(d, int(c))])[:k]
             for t, (d, c) in enumerate(best):
                 out_idx[qi, t], out_dist[qi, t] = c, d
@@ -468,6 +569,47 @@ class FastSearcher:
             stats.pruned += pruned
             stats.completed += len(lib) - pruned
         return SearchResult(out_idx, out_dist, stats)
+
+
+def runs_dtw_numpy(cost: np.ndarray, a_len: np.ndarray, b_len: np.ndarray) -> float:
+    """The ``"runs"`` block-corner DTW (see ``_runs_dtw_raw``) over a (runs × runs) block
+    cost matrix, one anti-diagonal at a time; same operations, same numbers."""
+    kx, ky = cost.shape
+    h = np.asarray(a_len, dtype=np.float64)
+    w = np.asarray(b_len, dtype=np.float64)
+    # arrays indexed by p + 1 (index 0 = virtual row -1)
+    before = np.full(kx + 1, np.inf)
+    last = np.full(kx + 1, np.inf)
+    for d in range(kx + ky - 1):
+        p = np.arange(max(0, d - ky + 1), min(kx - 1, d) + 1)
+        q = d - p
+        c = cost[p, q]
+        diag = before[p] + c * np.maximum(h[p], w[q])
+        if d == 0:
+            diag = c * np.maximum(h[p], w[q])
+        up = last[p] + c * h[p]  # from (p-1, q)
+        lf = last[p + 1] + c * w[q]  # from (p, q-1)
+        new = np.full(kx + 1, np.inf)
+        new[p + 1] = np.minimum(np.minimum(diag, up), lf)
+        before, last = last, new
+    return float(last[kx])
+
+
+def brute_force_runs(queries: Sequence[np.ndarray], library: Sequence[np.ndarray], table: DiffTable,
+                     k: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Reference k-NN for the ``"runs"`` approximation (numpy, every clip)."""
+    idx = np.full((len(queries), k), -1, np.int64)
+    dist = np.full((len(queries), k), np.inf)
+    for qi, q in enumerate(queries):
+        av, al = run_length_encode(q)
+        d = np.empty(len(library))
+        for c, b in enumerate(library):
+            bv, bl = run_length_encode(b)
+            d[c] = runs_dtw_numpy(table.lookup(av[:, None], bv[None, :]), al, bl) / (len(q) + len(b))
+        order = np.argsort(d, kind="stable")[:k]
+        idx[qi, :len(order)] = order
+        dist[qi, :len(order)] = d[order]
+    return idx, dist
 
 
 def brute_force(queries: Sequence[np.ndarray], library: Sequence[np.ndarray], table, k: int = 1,

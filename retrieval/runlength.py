@@ -195,12 +195,14 @@ if HAVE_NUMBA:
         return np.float64(F[d])
 
     @numba.njit(cache=True, nogil=True)
-    def rle_dtw_raw(a_val, a_len, b_val, b_len, F, absdiff, shift, mask, rest, limit, norm,
+    def rle_dtw_raw(a_val, a_len, b_val, b_len, F, absdiff, shift, mask, rest, rest_col, limit, norm,
                     row_prev, row_next, left, right, buf_a, buf_b, dq):  # pragma: no cover
         """Raw DTW over runs. The block cost is ``D[a_val[p], b_val[q]]`` through the
         difference table (F, absdiff, shift, mask); ``rest[p]`` a lower bound
-        of the cost still to come after row-run p; returns inf as soon as
-        (frontier min + rest[p]) / norm > limit (early abandoning). Work arrays:
+        of the cost of the rows after row-run p, ``rest_col[j]`` one of the columns after
+        column j; returns inf as soon as min_j (D[row end, j] + max(rest[p], rest_col[j]))
+        / norm > limit (early abandoning: what is left of any path through (row end, j)
+        covers all later rows and all later columns). Work arrays:
         row_prev/row_next of length ny+1, left/right of length max run+2, buf_a/buf_b and
         dq of length max(ny, max run)+2."""
         inf = np.inf
@@ -226,10 +228,15 @@ if HAVE_NUMBA:
                     left[s] = right[s]
                 j0 += w
             m = inf
+            rp = rest[p]
             for j in range(1, ny + 1):
-                if row_next[j] < m:
-                    m = row_next[j]
-            if (m + rest[p]) / norm > limit:
+                x = rest_col[j - 1]
+                if rp > x:
+                    x = rp
+                x += row_next[j]
+                if x < m:
+                    m = x
+            if m / norm > limit:
                 return inf
             row_prev, row_next = row_next, row_prev
             row_prev[0] = inf
