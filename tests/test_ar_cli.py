@@ -4,6 +4,8 @@ from __future__ import annotations
 import json
 import os
 
+import numpy as np
+
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from app.cli import main  # noqa: E402
@@ -16,7 +18,7 @@ CONDITION_KEYS = {"detect_rate", "rot_err_deg_median", "trans_err_mm_median", "r
 def test_ar_bench_json(tmp_path, capsys):
     out = tmp_path / "bench.json"
     rc = main(["ar-bench", "--frames", "4", "--conditions", "clean,occlusion_30", "--true-calibration",
-               "--json", str(out)])
+               "--json", str(out), "--examples", str(tmp_path / "img")])
     assert rc == 0
     result = json.loads(out.read_text())
     assert set(result["conditions"]) == {"clean", "occlusion_30"}
@@ -27,6 +29,12 @@ def test_ar_bench_json(tmp_path, capsys):
     for key in ("landing_error_mm_median", "detect_pose_ms_median", "render_ms_median"):
         assert result[key] > 0
     assert "| clean |" in capsys.readouterr().out
+    from PIL import Image
+
+    with Image.open(tmp_path / "img" / "ar_clean_projector_view.png") as im:
+        lit = np.asarray(im.convert("L")) > 20
+    assert 0.01 < lit.mean() < 0.5  # the test scene is drawn, on black
+    assert (tmp_path / "img" / "ar_occlusion_30_camera_axes.png").is_file()
 
 
 def test_ar_bench_unknown_condition_is_one_line_error(capsys):

@@ -66,13 +66,22 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+#: conditions whose middle frame is written by --examples (the ones docs/ar.md shows)
+EXAMPLE_CONDITIONS = ("clean", "occlusion_30", "low_light")
+
+
 def _write_examples(folder: Path, examples: dict) -> None:
+    """Half-size, 64-colour PNGs (small enough to commit) of the example frames."""
     import cv2
+    from PIL import Image
 
     folder.mkdir(parents=True, exist_ok=True)
     for cond, images in examples.items():
+        if cond not in EXAMPLE_CONDITIONS:
+            continue
         for kind, img in images.items():
-            bgr = img[..., ::-1] if kind == "projector_view" else img  # renders are RGB, frames BGR
-            small = cv2.resize(bgr, (bgr.shape[1] // 2, bgr.shape[0] // 2), interpolation=cv2.INTER_AREA)
-            cv2.imwrite(str(folder / f"ar_{cond}_{kind}.png"), small, [cv2.IMWRITE_PNG_COMPRESSION, 9])
+            rgb = img if kind == "projector_view" else img[..., ::-1]  # renders are RGB, camera frames BGR
+            small = cv2.resize(rgb, (rgb.shape[1] // 2, rgb.shape[0] // 2), interpolation=cv2.INTER_AREA)
+            im = Image.fromarray(small).quantize(colors=64, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+            im.save(folder / f"ar_{cond}_{kind}.png", optimize=True)
     print(f"wrote example frames to {folder}")
