@@ -283,3 +283,22 @@ def save_character(character: Character, folder: str | Path) -> Path:
     path = folder / f"{character.name}.json"
     path.write_text(json.dumps(meta, indent=2))
     return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m ar.characters [--out assets/characters] [--height 0.12]``: write every
+    character's rest-pose mesh and metadata (previews for other tools; the app builds
+    characters in code)."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m ar.characters", description=main.__doc__)
+    p.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "assets" / "characters")
+    p.add_argument("--height", type=float, default=DEFAULT_HEIGHT_M)
+    args = p.parse_args(argv)
+    for name in CHARACTER_NAMES:
+        print(save_character(build_character(name, args.height), args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
