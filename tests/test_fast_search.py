@@ -1,0 +1,207 @@
+"""Fast exact retrieval: compact tables, lower bounds, run-length DTW, pruned k-NN search.
+
+Every test compares against the seed's own pieces (full table, :func:`retrieval.dtw.dtw_codes`)
+computed independently, so a wrong optimisation fails here.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from retrieval.compact_table import DiffTable, component_lookup, component_table, difference_table, table_bytes
+from retrieval.dtw import dtw_codes
+from retrieval.errors import StoryBeamError
+from retrieval.fast_search import FastSearcher, PackedCodes, brute_force, brute_force_runs
+from retrieval.lower_bounds import envelope_sums, lb_kim, lower_bound
+from retrieval.quantize import Quantizer, full_table
+from retrieval.runlength import rle_dtw_numpy, rle_dtw_raw, rle_is_exact, run_length_decode, run_length_encode
+
+
+def _ratios(n: int, seed: int) -> np.ndarray:
+    return np.sort(np.random.default_rng(seed).dirichlet(np.ones(17)))[::-1][:n]
+
+
+def _slow_codes(rng: np.random.Generator, max_runs: int = 25, alphabet: int = 4096, max_run: int = 6) -> np.ndarray:
+    """Codes that change slowly (runs), from a small or the full alphabet."""
+    k = int(rng.integers(1, max_runs))
+    vals = rng.integers(0, alphabet, k) if rng.random() < 0.4 else rng.integers(0, 24, k) * 37 % alphabet
+    return run_length_decode(vals, rng.integers(1, max_run + 1, k))
+
+
+@pytest.fixture(scope="module")
+def tables():
+    c = _ratios(6, 3)
+    return c, full_table(c), DiffTable.from_ratios(c)
+
+
+# ------------------------------------------------------------------ compact tables
+def test_difference_table_equals_the_full_table_exactly_at_n6(tables):
+    c, full, diff = tables
+    codes = np.arange(4**6)
+    for start in range(0, 4**6, 512):  # every one of the 16.7 M pairs, bit for bit
+        block = diff.lookup(codes[start:start + 512, None], codes[None, :])
+        assert np.array_equal(block, full[start:start + 512].astype(np.float64))
+    assert diff.nbytes <= 64 * 1024
+    assert diff.nbytes == table_bytes("diff", 6) == 20480
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 7])
+def test_compact_layouts_equal_the_full_table_for_other_n(n):
+    c = _ratios(n, n)
+    diff = DiffTable.from_ratios(c)
+    rng = np.random.default_rng(n)
+    a = rng.integers(0, 4**n, 4000)
+    b = rng.integers(0, 4**n, 4000)
+    if n <= 5:
+        full = full_table(c)
+        ref = full[a, b].astype(np.float64)
+        assert np.array_equal(difference_table(c), full[0])
+    else:  # 4^7 square is 1 GiB: check against the seed's defining sum, rounded like full_table
+        g = lambda x: (x[:, None] >> (2 * np.arange(n))) & 3  # noqa: E731
+        w = np.array([0.0, 1.0, 4.0, 16.0])[np.abs(g(a) - g(b))]
+        acc = np.zeros(len(a))
+        for i in range(n):
+            acc = c[i] * w[:, i] + acc
+        ref = acc.astype(np.float32).astype(np.float64)
+    assert np.array_equal(diff.lookup(a, b), ref)
+    assert np.array_equal(component_lookup(component_table(c), a, b), ref)
+
+
+# ------------------------------------------------------------------ lower bounds
+def test_lower_bounds_never_exceed_the_normalised_dtw(tables):
+    _, full, diff = tables
+    rng = np.random.default_rng(11)
+    gaps = []
+    for _ in range(400):
+        a, b = _slow_codes(rng), _slow_codes(rng)
+        d = dtw_codes(a, b, full)
+        for lb in (lb_kim(a, b, diff), lower_bound(a, b, diff)):
+            assert lb <= d, (a, b, lb, d)
+        rows, cols = envelope_sums(a, b, diff)
+        assert max(rows, cols) <= dtw_codes(a, b, full, normalize=False)
+        gaps.append(d - lower_bound(a, b, diff))
+    assert max(gaps) > 0  # the bound is not trivially the distance itself
+    assert np.mean([g == 0 for g in gaps]) < 0.5
+
+
+def test_lower_bounds_stay_valid_under_a_band(tables):
+    _, full, diff = tables
+    rng = np.random.default_rng(12)
+    for _ in range(200):
+        a, b = _slow_codes(rng), _slow_codes(rng)
+        assert lower_bound(a, b, diff) <= dtw_codes(a, b, full, band=int(rng.integers(0, 6)))
+
+
+# ------------------------------------------------------------------ run-length DTW
+def _work(nx: int, ny: int):
+    m = max(nx, ny) + 2
+    return (np.empty(ny + 1), np.empty(ny + 1), np.empty(m), np.empty(m), np.empty(m), np.empty(m),
+            np.empty(m, np.int64))
+
+
+def test_run_length_block_dtw_is_bit_identical_to_the_seed_dtw(tables):
+    _, full, diff = tables
+    assert rle_is_exact(diff.F, 100_000)
+    rng = np.random.default_rng(5)
+    for _ in range(600):
+        a, b = _slow_codes(rng, max_run=int(rng.choice([1, 3, 20]))), _slow_codes(rng)
+        av, al = run_length_encode(a)
+        bv, bl = run_length_encode(b)
+        raw = rle_dtw_raw(av, al, bv, bl, diff.F, diff.absdiff, 6, 63, np.zeros(len(av)), np.zeros(len(b)),
+                          np.inf, 1.0, *_work(len(a), len(b)))
+        ref = dtw_codes(a, b, full, normalize=False, backend="numba")
+        assert raw == ref
+        assert rle_dtw_numpy(av, al, bv, bl, diff.lookup(av[:, None], bv[None, :])) == ref
+
+
+def test_run_length_encoding_round_trips():
+    c = np.array([5, 5, 5, 2, 2, 7, 5, 5], dtype=np.int32)
+    v, n = run_length_encode(c)
+    assert v.tolist() == [5, 2, 7, 5] and n.tolist() == [3, 2, 1, 2]
+    assert np.array_equal(run_length_decode(v, n), c)
+
+
+def test_exactness_condition_detects_tiny_costs():
+    assert not rle_is_exact(np.array([0.0, 1e-30, 16.0], dtype=np.float32), 1000)
+    assert rle_is_exact(np.array([0.0, 0.02, 16.0], dtype=np.float32), 100_000)
+
+
+def test_run_length_approximation_is_an_upper_bound_equal_without_runs(tables):
+    _, full, diff = tables
+    rng = np.random.default_rng(8)
+    lib = [_slow_codes(rng) for _ in range(30)]
+    qs = [_slow_codes(rng) for _ in range(8)]
+    _, approx = brute_force_runs(qs, lib, diff, k=1)
+    _, exact = brute_force(qs, lib, full, k=1)
+    assert np.all(approx >= exact)
+    # sequences without repeated codes: the approximation is the exact DTW
+    a = np.array([1, 2, 3, 4, 9], np.int32)
+    b = np.array([4, 3, 2, 8], np.int32)
+    assert brute_force_runs([a], [b], diff)[1][0, 0] == dtw_codes(a, b, full)
+
+
+# ------------------------------------------------------------------ pruned search
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("k,band", [(1, None), (3, None), (1, 4), (2, 2)])
+def test_pruned_search_equals_brute_force(tables, backend, k, band):
+    _, full, diff = tables
+    rng = np.random.default_rng(100 + k + (band or 0))
+    lib = [_slow_codes(rng) for _ in range(50)]
+    lib[7] = lib[3].copy()  # an exact tie: the lower index must win, like argsort(stable)
+    qs = [_slow_codes(rng) for _ in range(10)] + [lib[3]]
+    idx, dist = brute_force(qs, lib, full, k=k, band=band)
+    searcher = FastSearcher(lib, diff, band=band, backend=backend)
+    for parallel in (False, True):
+        res = searcher.search(qs, k=k, parallel=parallel)
+        assert np.array_equal(res.indices, idx)
+        assert np.array_equal(res.distances, dist)
+    assert res.stats.candidates == len(qs) * len(lib)
+    assert res.stats.pruned + res.stats.abandoned + res.stats.completed == res.stats.candidates
+
+
+def test_search_prunes_on_real_like_data_and_finds_planted_copies(tables):
+    _, full, diff = tables
+    rng = np.random.default_rng(21)
+    lib = [_slow_codes(rng, max_runs=60) for _ in range(120)]
+    qs = [lib[i][2:-2] if len(lib[i]) > 6 else lib[i] for i in (5, 50, 99)]
+    res = FastSearcher(lib, diff).search(qs, k=1)
+    assert np.array_equal(res.indices, brute_force(qs, lib, full)[0])
+    assert res.stats.pruned_fraction > 0.3
+
+
+def test_runs_mode_search_matches_its_brute_force(tables):
+    _, _, diff = tables
+    rng = np.random.default_rng(31)
+    lib = [_slow_codes(rng) for _ in range(40)]
+    qs = [_slow_codes(rng) for _ in range(6)]
+    idx, dist = brute_force_runs(qs, lib, diff, k=2)
+    for backend in ("numba", "numpy"):
+        res = FastSearcher(lib, diff, mode="runs", backend=backend).search(qs, k=2)
+        assert np.array_equal(res.indices, idx) and np.array_equal(res.distances, dist)
+
+
+def test_numpy_and_numba_paths_agree_on_quantised_real_features(tables):
+    rng = np.random.default_rng(4)
+    # smooth 17-D "features" -> real quantiser -> codes with realistic runs
+    walk = np.cumsum(rng.normal(size=(3000, 17)), axis=0) * 0.1
+    q = Quantizer.fit(walk, 6)
+    diff = DiffTable.from_ratios(q.ratios)
+    codes = [q.encode(walk[s:s + int(rng.integers(20, 80))]) for s in rng.integers(0, 2900, 40)]
+    a = FastSearcher(codes[5:], diff, backend="numba").search(codes[:5], k=2)
+    b = FastSearcher(codes[5:], diff, backend="numpy").search(codes[:5], k=2)
+    assert np.array_equal(a.indices, b.indices) and np.array_equal(a.distances, b.distances)
+    assert np.array_equal(a.indices, brute_force(codes[:5], codes[5:], q.table(), k=2)[0])
+
+
+def test_bad_input_raises_storybeam_errors(tables):
+    _, _, diff = tables
+    with pytest.raises(StoryBeamError):
+        FastSearcher([np.array([], np.int32)], diff)
+    with pytest.raises(StoryBeamError):
+        FastSearcher([np.array([5000], np.int32)], diff)
+    with pytest.raises(StoryBeamError):
+        FastSearcher([np.array([1, 2], np.int32)], diff, mode="fastest")
+    with pytest.raises(StoryBeamError):
+        FastSearcher([np.array([1, 2], np.int32)], diff).search([np.array([1])], k=0)
+    with pytest.raises(StoryBeamError):
+        PackedCodes.from_sequences([])
