@@ -104,6 +104,7 @@ def plan_animation(cfg: DemoConfig, index) -> dict:
     """Retrieve, retarget and lay the motion on the sample path (no rendering)."""
     from ar.characters import build_character
     from retrieval.animation_metrics import foot_skate_cm_per_m, path_error_cm
+    from retrieval.motion_choice import choose_clip, clip_path
     from retrieval.motion_io import load_motion
     from retrieval.path_follow import TablePath, follow_path
     from retrieval.retarget import retarget
@@ -111,11 +112,10 @@ def plan_animation(cfg: DemoConfig, index) -> dict:
 
     query = _query_motion(cfg.query_trial)
     t0 = time.perf_counter()
-    matches = index.query(query, k=len(index))
+    trial, label, distance = choose_clip(index, "walk", query, exclude=(cfg.query_trial,))
     search_ms = (time.perf_counter() - t0) * 1000
-    answer = next(m for m in matches if m.trial != cfg.query_trial)
     character = build_character(cfg.character, cfg.height_m)
-    source = load_motion(MOTIONS / "bvh" / f"{answer.trial}.bvh")
+    source = load_motion(clip_path(MOTIONS, trial))
     motion = retarget(source, character.skeleton)
     # Size the loop so a slightly slowed pace (0.8x) fills the requested time, within
     # what fits on the board (a 0.6 m loop spans about 15 x 22 cm).
@@ -128,7 +128,7 @@ def plan_animation(cfg: DemoConfig, index) -> dict:
     animated = result.motion
     return {
         "character": character, "motion": animated, "path": path, "query": query.name,
-        "retrieved": {"trial": answer.trial, "label": answer.label, "distance": answer.distance,
+        "retrieved": {"trial": trial, "label": label, "distance": distance,
                       "query": query.name, "query_label": "walk", "search_ms": search_ms},
         "path_error_cm": path_error_cm(animated, path.points),
         "foot_skate_cm_per_m": foot_skate_cm_per_m(animated),

@@ -123,3 +123,22 @@ def test_bad_paths_raise():
         TablePath(np.array([[0, 0], [1, np.nan]]))
     with pytest.raises(PathError):
         TablePath(np.array([[0, 0], [1, 0]]), times=[1.0, 0.5])
+
+
+def test_choosing_a_clip_by_class_or_by_query():
+    from retrieval.index import MotionIndex
+    from retrieval.motion_choice import choose_clip, clip_path
+
+    trials = {"02_01": "walk", "16_15": "walk", "16_31": "walk", "02_03": "run", "09_01": "run", "16_01": "jump"}
+    motions = [load_motion(BVH / f"{t}.bvh").copy(name=t) for t in trials]
+    index = MotionIndex.from_motions(motions, list(trials.values()))
+    trial, label, _ = choose_clip(index, "walk")
+    assert label == "walk" and trial in {"02_01", "16_15", "16_31"}
+    # a query answers with the nearest clip of the wanted class, never an excluded one
+    q = motions[1].slice(20, 80)
+    t2, l2, d2 = choose_clip(index, "walk", q, exclude=("16_15",))
+    assert l2 == "walk" and t2 != "16_15" and d2 >= 0
+    assert choose_clip(index, query=q)[1] == "walk"  # any class allowed: still a walk
+    assert clip_path(BVH.parent, "16_01").name == "16_01.bvh"
+    with pytest.raises(Exception, match="dance"):
+        choose_clip(index, "dance")
