@@ -170,10 +170,17 @@ class Board:
         kind = self.spec.kind
         total = len(self.all_object_points)
         if kind == "checker":
-            flags = cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
-            found, corners = cv2.findChessboardCornersSB(gray, (self.spec.cols, self.spec.rows), flags=flags)
+            # CALIB_CB_ACCURACY costs ~4x the time and was less accurate on the bench than
+            # a cornerSubPix pass with a window scaled to the square size
+            found, corners = cv2.findChessboardCornersSB(gray, (self.spec.cols, self.spec.rows),
+                                                         flags=cv2.CALIB_CB_NORMALIZE_IMAGE)
             if not found or corners is None or len(corners) != total:
                 return None
+            grid = corners.reshape(self.spec.rows, self.spec.cols, 2)
+            side = float(np.median(np.linalg.norm(np.diff(grid, axis=1), axis=-1)))
+            half = int(np.clip(side * 0.3, 2, 10))
+            crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 1e-3)
+            corners = cv2.cornerSubPix(gray, corners.reshape(-1, 1, 2).astype(np.float32), (half, half), (-1, -1), crit)
             img = corners.reshape(-1, 2).astype(np.float64)
             img = self._orient_checker(gray, img)
             return BoardDetection(self.all_object_points.copy(), img, np.arange(total), total)
