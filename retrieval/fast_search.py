@@ -183,20 +183,29 @@ if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
     def _plain_dtw_raw(a, b, F, absdiff, shift, mask, lo, hi, rest_row, rest_col, limit, norm, prev, cur):  # pragma: no cover
-        """Row-by-row look-up DTW with band limits and early abandoning: the numbers of
-        :func:`retrieval.dtw._nb_dtw_table` with the difference table."""
+        """Row-by-row look-up DTW with band limits, early abandoning and a pruned corridor
+        (cells whose value plus the bound of the rows/columns still to come exceeds the
+        limit are dead; a row stops where nothing live can feed it): the numbers of
+        :func:`retrieval.dtw._nb_dtw_table` with the difference table whenever the result
+        is within the limit, inf otherwise."""
         nx, ny = a.shape[0], b.shape[0]
         inf = np.inf
         for j in range(ny):
             prev[j] = inf
-            cur[j] = inf
+        ihi = -1  # live column range of the previous row (row -1: only the virtual start)
+        ilo = 0
         for i in range(nx):
-            if i >= 2:
-                for j in range(lo[i - 2], hi[i - 2] + 1):
-                    cur[j] = inf
+            for j in range(ny):
+                cur[j] = inf
             ai = a[i]
-            m = inf
-            for j in range(lo[i], hi[i] + 1):
+            jstart = lo[i]
+            if i > 0 and ilo > jstart:
+                jstart = ilo
+            nlo = -1
+            nhi = -1
+            for j in range(jstart, hi[i] + 1):
+                if j > ihi + 1 and (j == 0 or cur[j - 1] == inf) and not (i == 0 and j == 0):
+                    break  # only a dead left neighbour could feed this cell and the rest
                 if i == 0 and j == 0:
                     best = 0.0
                 else:
@@ -208,15 +217,20 @@ if HAVE_NUMBA:
                     if j > 0 and cur[j - 1] < best:
                         best = cur[j - 1]
                 v = diff_cost(ai, b[j], F, absdiff, shift, mask) + best
-                cur[j] = v
                 x = rest_col[j]
                 if rest_row[i] > x:
                     x = rest_row[i]
-                x += v
-                if x < m:
-                    m = x
-            if m / norm > limit:
+                if v == inf or (v + x) / norm > limit:
+                    cur[j] = inf  # dead: no path through it can finish within the limit
+                else:
+                    cur[j] = v
+                    if nlo < 0:
+                        nlo = j
+                    nhi = j
+            if nlo < 0:
                 return inf
+            ilo = nlo
+            ihi = nhi
             prev, cur = cur, prev
         return prev[ny - 1]
 

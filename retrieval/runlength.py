@@ -200,44 +200,77 @@ if HAVE_NUMBA:
         """Raw DTW over runs. The block cost is ``D[a_val[p], b_val[q]]`` through the
         difference table (F, absdiff, shift, mask); ``rest[p]`` a lower bound
         of the cost of the rows after row-run p, ``rest_col[j]`` one of the columns after
-        column j; returns inf as soon as min_j (D[row end, j] + max(rest[p], rest_col[j]))
-        / norm > limit (early abandoning: what is left of any path through (row end, j)
-        covers all later rows and all later columns). Work arrays:
+        column j. A cell with (D + max(rest[p], rest_col[j])) / norm > limit is marked dead
+        (what is left of any path through it covers all later rows and all later columns),
+        blocks no live cell can reach are skipped, and the result is inf as soon as a
+        row-run has no live cell (early abandoning). With ``limit = inf`` nothing is cut. Work arrays:
         row_prev/row_next of length ny+1, left/right of length max run+2, buf_a/buf_b and
         dq of length max(ny, max run)+2."""
         inf = np.inf
         ny = 0
         for q in range(b_len.shape[0]):
             ny += b_len[q]
+        kx, ky = a_val.shape[0], b_val.shape[0]
         row_prev[0] = 0.0  # virtual D[-1, -1]
         for j in range(1, ny + 1):
             row_prev[j] = inf
-        for p in range(a_val.shape[0]):
+        ilo = 0  # live index range of row_prev (index = column + 1); outside it all inf
+        ihi = 0
+        for p in range(kx):
             h = a_len[p]
+            rp = rest[p]
+            for j in range(ny + 1):
+                row_next[j] = inf
             for s in range(h + 1):
                 left[s] = inf
-            row_next[0] = inf
+            # skip the blocks whose top lies wholly left of the live range: their inputs
+            # (and so their outputs) are all dead
             j0 = 0
-            for q in range(b_val.shape[0]):
+            q = 0
+            while q < ky and j0 + b_len[q] < ilo:
+                j0 += b_len[q]
+                q += 1
+            left_alive = False
+            nlo = -1
+            nhi = -1
+            while q < ky:
+                if j0 > ihi and not left_alive:
+                    break  # nothing live can reach the remaining blocks of this row-run
                 w = b_len[q]
-                # top = row_prev[j0 .. j0+w]; bottom -> row_next[j0+1 .. j0+w]
                 c = diff_cost(a_val[p], b_val[q], F, absdiff, shift, mask)
                 _block(row_prev[j0:j0 + w + 1], left, h, w, c,
                        row_next[j0:j0 + w + 1], right, buf_a, buf_b, dq)
-                for s in range(1, h + 1):
-                    left[s] = right[s]
-                j0 += w
-            m = inf
-            rp = rest[p]
-            for j in range(1, ny + 1):
-                x = rest_col[j - 1]
+                # a cell whose value plus the bound of what must follow exceeds the limit
+                # lies on no path worth finishing: mark it dead (PrunedDTW-style corridor)
+                for t in range(1, w + 1):
+                    idx = j0 + t
+                    v = row_next[idx]
+                    x = rest_col[idx - 1]
+                    if rp > x:
+                        x = rp
+                    if v == inf or (v + x) / norm > limit:
+                        row_next[idx] = inf
+                    else:
+                        if nlo < 0:
+                            nlo = idx
+                        nhi = idx
+                x = rest_col[j0 + w - 1]
                 if rp > x:
                     x = rp
-                x += row_next[j]
-                if x < m:
-                    m = x
-            if m / norm > limit:
+                left_alive = False
+                for s in range(1, h + 1):
+                    v = right[s]
+                    if v == inf or (v + x) / norm > limit:
+                        left[s] = inf
+                    else:
+                        left[s] = v
+                        left_alive = True
+                j0 += w
+                q += 1
+            if nlo < 0:
                 return inf
+            ilo = nlo
+            ihi = nhi
             row_prev, row_next = row_next, row_prev
             row_prev[0] = inf
         return row_prev[ny]
