@@ -134,8 +134,19 @@ class SearchStats:
 if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
+    def _query_rows(q_dv, F, absdiff, shift, mask):  # pragma: no cover
+        """R[u, v] = D[q_dv[u], v] for every code v (float32, exact: the table's values are
+        float32): after this one pass per query, every bound costs one load per cell."""
+        size = F.shape[0]
+        R = np.empty((q_dv.shape[0], size), np.float32)
+        for u in range(q_dv.shape[0]):
+            for v in range(size):
+                R[u, v] = F[np.int64(absdiff[q_dv[u] & mask, v & mask]) | (np.int64(absdiff[q_dv[u] >> shift, v >> shift]) << shift)]
+        return R
+
+    @numba.njit(cache=True, nogil=True)
     def _lb_pair(q_dv, q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
-                 F, absdiff, shift, mask, colmin):  # pragma: no cover
+                 F, absdiff, shift, mask, colmin, R):  # pragma: no cover
         """Normalised max(LB_Kim, envelope rows, envelope columns)."""
         inf = np.inf
         nv = c_dv.shape[0]
@@ -144,9 +155,9 @@ if HAVE_NUMBA:
         rows = 0.0
         for u in range(q_dv.shape[0]):
             m = inf
-            a = q_dv[u]
+            Ru = R[u]
             for v in range(nv):
-                d = diff_cost(a, c_dv[v], F, absdiff, shift, mask)
+                d = np.float64(Ru[c_dv[v]])
                 if d < m:
                     m = d
                 if d < colmin[v]:
@@ -166,15 +177,16 @@ if HAVE_NUMBA:
         return best / (nx + ny)
 
     @numba.njit(cache=True, nogil=True)
-    def _row_mins(q_dv, c_dv, F, absdiff, shift, mask, out, out_col):  # pragma: no cover
+    def _row_mins(q_dv, c_dv, R, out, out_col):  # pragma: no cover
         """Per distinct query code its cheapest candidate code (out) and per distinct
         candidate code its cheapest query code (out_col)."""
         for v in range(c_dv.shape[0]):
             out_col[v] = np.inf
         for u in range(q_dv.shape[0]):
             m = np.inf
+            Ru = R[u]
             for v in range(c_dv.shape[0]):
-                d = diff_cost(q_dv[u], c_dv[v], F, absdiff, shift, mask)
+                d = np.float64(Ru[c_dv[v]])
                 if d < m:
                     m = d
                 if d < out_col[v]:
@@ -296,7 +308,7 @@ if HAVE_NUMBA:
             hi[i] = int(min(max(y, 0.0), ny - 1))
 
     @numba.njit(cache=True, nogil=True)
-    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, out):  # pragma: no cover
+    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, out):  # pragma: no cover
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
@@ -308,10 +320,10 @@ if HAVE_NUMBA:
                 colmin = np.empty(nvb)
             out[c] = _lb_pair(qdv[qdo[qi]:qdo[qi + 1]], qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
                               ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
-                              F, absdiff, shift, mask, colmin)
+                              F, absdiff, shift, mask, colmin, R)
 
     @numba.njit(cache=True, nogil=True, parallel=True)
-    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, out):  # pragma: no cover
+    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, R, out):  # pragma: no cover
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
@@ -320,10 +332,10 @@ if HAVE_NUMBA:
             colmin = np.empty(ldo[c + 1] - ldo[c])
             out[c] = _lb_pair(qdv[qdo[qi]:qdo[qi + 1]], qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
                               ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
-                              F, absdiff, shift, mask, colmin)
+                              F, absdiff, shift, mask, colmin, R)
 
     @numba.njit(cache=True, nogil=True)
-    def _refine(qi, Q, L, F, absdiff, shift, mask, lbs, k, use_rle, band, out_idx, out_dist, stats):  # pragma: no cover
+    def _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx, out_dist, stats):  # pragma: no cover
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
         (distance, then index). Writes out_idx/out_dist (k) and stats (4)."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
@@ -393,7 +405,7 @@ if HAVE_NUMBA:
             nvb = ldo[c + 1] - ldo[c]
             if cmin.shape[0] < nvb:
                 cmin = np.empty(nvb)
-            _row_mins(qdv[d0:d1], ldv[ldo[c]:ldo[c + 1]], F, absdiff, shift, mask, rm, cmin)
+            _row_mins(qdv[d0:d1], ldv[ldo[c]:ldo[c + 1]], R, rm, cmin)
             acc = 0.0
             for p in range(nruns - 1, -1, -1):
                 rest_run[p] = acc * safety
@@ -450,8 +462,9 @@ if HAVE_NUMBA:
         ncand = L[1].shape[0] - 1
         for qi in numba.prange(nq):
             lbs = np.empty(ncand)
-            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, lbs)
-            _refine(qi, Q, L, F, absdiff, shift, mask, lbs, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi])
+            R = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], F, absdiff, shift, mask)
+            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, lbs)
+            _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi])
 
 
 # --------------------------------------------------------------------------- public API
@@ -528,13 +541,15 @@ class FastSearcher:
         if nq == 1 or not parallel:
             for qi in range(nq):
                 lbs = np.empty(len(self.library))
+                R = _query_rows(packed.dist_val[packed.dist_off[qi]:packed.dist_off[qi + 1]], t.F, t.absdiff,
+                                self._shift, self._mask)
                 if not self.use_bounds:
                     lbs[:] = 0.0
                 elif parallel:
-                    _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, lbs)
+                    _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs)
                 else:
-                    _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, lbs)
-                _refine(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, lbs, k, use_rle, band,
+                    _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs)
+                _refine(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs, k, use_rle, band,
                         out_idx[qi], out_dist[qi], stats[qi])
         else:
             if not self.use_bounds:
