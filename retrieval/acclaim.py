@@ -36,7 +36,7 @@ import numpy as np
 from .errors import MotionFormatError
 from .motion import Joint, Motion, Skeleton
 from .rotations import axis_rotation
-from .textfile import MAX_DEPTH, MAX_JOINTS, check_motion_size, parse_float, parse_floats, read_lines
+from .textfile import MAX_DEPTH, MAX_JOINTS, check_coordinates, check_motion_size, parse_float, parse_floats, read_lines
 
 #: CMU's takes are captured at 120 frames per second; AMC files do not say so.
 DEFAULT_AMC_FPS = 120.0
@@ -176,6 +176,8 @@ class _AsfParser:
             self.length_scale = parse_float(tokens[1], self.path, ln, "length unit")
             if self.length_scale <= 0:
                 raise self.fail("length unit must be positive", ln)
+            if not 1e-6 <= self.length_scale <= 1e6:  # 5e-324 made metres_per_unit inf (fuzzing)
+                raise self.fail(f"length unit {self.length_scale:g} is implausible (expected 1e-6 to 1e6)", ln)
         elif key == "angle":
             unit = tokens[1].lower()
             if unit not in ("deg", "rad"):
@@ -198,6 +200,7 @@ class _AsfParser:
             if len(tokens) != 4:
                 raise self.fail(f"root {key} needs 3 numbers, found {len(tokens) - 1}", ln)
             vec = np.array(parse_floats(tokens[1:], self.path, ln, f"root {key}"))
+            check_coordinates(vec, self.path, ln, f"root {key}")
             if key == "position":
                 self.root_position = vec
             else:
@@ -219,6 +222,7 @@ class _AsfParser:
             bone.length = parse_float(tokens[1], self.path, ln, "length")
             if bone.length < 0:
                 raise self.fail("bone length is negative", ln)
+            check_coordinates(bone.length, self.path, ln, "bone length")
         elif key == "axis":
             if len(tokens) != 5 or not _is_axis_order(tokens[4]):
                 raise self.fail("axis line must be 'axis ax ay az ORDER' (e.g. XYZ)", ln)
@@ -334,6 +338,9 @@ def load_amc(path: str | Path, skeleton: AcclaimSkeleton | str | Path, fps: floa
     fast = _read_uniform_frames(lines[first:], asf) if first is not None else None
     n_frames, values = fast if fast is not None else _read_frames_line_by_line(path, lines, asf)
     check_motion_size(path, n_frames, asf.skeleton.n_joints)
+    if "root" in values:
+        translation = [k for k, d in enumerate(asf.dofs["root"]) if d in _TRANSLATION_DOFS]
+        check_coordinates(values["root"][1][:, translation], path, None, "root translation")
     return _amc_to_motion(asf, values, n_frames, degrees, fps, path.stem)
 
 

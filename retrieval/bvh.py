@@ -59,7 +59,7 @@ from .errors import MotionFormatError
 from .kinematics import global_transforms
 from .motion import Joint, Motion, Skeleton
 from .rotations import axis_rotation, matrix_to_euler
-from .textfile import MAX_DEPTH, MAX_FRAMES, MAX_JOINTS, check_motion_size, parse_float, parse_floats, read_lines
+from .textfile import MAX_DEPTH, MAX_FRAMES, MAX_JOINTS, check_coordinates, check_motion_size, parse_float, parse_floats, read_lines
 
 log = logging.getLogger(__name__)
 
@@ -107,6 +107,8 @@ def load_bvh(
     lines = read_lines(path)
     joints, motion_line = _parse_hierarchy(path, lines)
     fps, data = _parse_motion(path, lines, motion_line, sum(len(j.channels) for j in joints), len(joints))
+    position_columns = [c for c, ch in enumerate(ch for j in joints for ch in j.channels) if ch.endswith("position")]
+    check_coordinates(data[:, position_columns], path, None, "position channel value")
     skeleton = Skeleton(joints, metres_per_unit=0.01, up_axis="y", name=path.stem)
     motion = _channels_to_motion(skeleton, data, fps, path.stem)
 
@@ -271,6 +273,7 @@ def _joint_body(path: Path, toks: _Tokens, end_site: bool) -> tuple[np.ndarray, 
             toks.take()
             vals = [toks.take() for _ in range(3)]
             offset = np.array([parse_float(t, path, l, "OFFSET value") for t, l in vals])
+            check_coordinates(offset, path, vals[0][1], "OFFSET value")
         elif word == "CHANNELS":
             toks.take()
             if end_site:

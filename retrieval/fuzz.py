@@ -349,10 +349,10 @@ def _check_motion(motion) -> None:
             raise AssertionError(f"loaded motion has non-finite {name}")
     if not np.isfinite(motion.skeleton.offsets).all() or not np.isfinite(motion.skeleton.metres_per_unit):
         raise AssertionError("loaded skeleton has non-finite offsets or units")
-    from .kinematics import global_transforms
+    from .kinematics import positions
 
     with np.errstate(all="ignore"):
-        first = global_transforms(motion.slice(0, 1))[1]
+        first = positions(motion.slice(0, 1))  # metres, Y up: what the app uses
     if not np.isfinite(first).all():
         raise AssertionError("joint positions of the loaded motion are not finite")
 

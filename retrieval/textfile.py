@@ -19,6 +19,22 @@ MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_FRAMES = 10_000_000
 #: Deeper hierarchies than this are corrupt (real skeletons are < 30 deep).
 MAX_DEPTH = 256
+#: Largest coordinate (offset, bone length, translation) in file units. 1e9 is 1000 km
+#: in millimetres; beyond it sums of offsets overflow to inf in forward kinematics
+#: (found by fuzzing: OFFSET 1e308 loaded, then joint positions were inf).
+MAX_COORDINATE = 1e9
+
+
+def check_coordinates(values, path: str | Path, line: int | None, what: str) -> None:
+    """Refuse coordinates beyond :data:`MAX_COORDINATE` (see there)."""
+    import numpy as np
+
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.size and float(np.abs(arr).max()) > MAX_COORDINATE:
+        raise MotionFormatError(path, f"{what} {float(np.abs(arr).max()):g} is implausibly large "
+                                      f"(limit {MAX_COORDINATE:g} file units)", line)
+
+
 #: More joints (BVH) or bones (ASF) than this are corrupt (real skeletons have < 200).
 MAX_JOINTS = 4096
 #: Frames x joints of a decoded motion (one 3x3 float64 rotation each, 72 bytes): 8

@@ -31,12 +31,12 @@ def test_monkey_really_used_the_app(report):
 
 def test_monkey_reports_a_crashing_app(tmp_path, monkeypatch):
     """The harness can fail: an app that dies without a result is reported as a crash."""
-    real_run = monkey.subprocess.run
+    real_popen = monkey.subprocess.Popen
 
-    def fake_run(cmd, **kw):
-        return real_run([sys.executable, "-c", "import sys; sys.exit(5)"], **{k: v for k, v in kw.items() if k != "cwd"})
+    def fake_popen(cmd, **kw):
+        return real_popen([sys.executable, "-c", "import sys; sys.exit(5)"], **kw)
 
-    monkeypatch.setattr(monkey.subprocess, "run", fake_run)
+    monkeypatch.setattr(monkey.subprocess, "Popen", fake_popen)
     out = monkey.run_monkey(tmp_path, seconds=1)
     assert out["crashes"] == 1 and out["failures"] >= 1 and "exit 5" in out["error"]
     json.dumps(out)

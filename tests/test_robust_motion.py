@@ -271,3 +271,36 @@ def test_file_size_limit_message_names_the_limit(tmp_path):
         fh.truncate(textfile.MAX_FILE_BYTES + 1)  # sparse: no disk used
     with pytest.raises(MotionFormatError, match="64 MB limit"):
         load_bvh(path)
+
+
+def test_subnormal_asf_length_unit_is_refused(tmp_path):
+    """Found by the 100k campaign: ':units length 5e-324' loaded with metres_per_unit = inf."""
+    path = tmp_path / "u.asf"
+    path.write_text(_flat_asf(2).replace("length 0.45", "length 5e-324"))
+    with pytest.raises(MotionFormatError, match="length unit"):
+        load_asf(path)
+
+
+def test_huge_bvh_offsets_are_refused(tmp_path):
+    """Found while checking the campaign's finding: OFFSET 1e308 on chained joints loaded,
+    then forward kinematics gave inf joint positions."""
+    text = _one_joint_bvh(3).replace("OFFSET 0 100 0", "OFFSET 0 1e308 0")
+    path = tmp_path / "o.bvh"
+    path.write_text(text)
+    with pytest.raises(MotionFormatError, match="implausibly large"):
+        load_bvh(path)
+    path.write_text(_one_joint_bvh(3).replace("0 90 0 1 2 3", "0 1e308 0 1 2 3"))
+    with pytest.raises(MotionFormatError, match="position channel"):
+        load_bvh(path)
+
+
+def test_huge_asf_bone_length_and_amc_translation_are_refused(tmp_path):
+    asf = tmp_path / "b.asf"
+    asf.write_text(_flat_asf(3).replace("length 1\n", "length 1e308\n", 1))
+    with pytest.raises(MotionFormatError, match="bone length"):
+        load_asf(asf)
+    asf.write_text(_flat_asf(3))
+    amc = tmp_path / "t.amc"
+    amc.write_text(":DEGREES\n1\nroot 1e308 0 0 0 0 0\n2\nroot 0 0 0 0 0 0\n")
+    with pytest.raises(MotionFormatError, match="root translation"):
+        load_amc(amc, load_asf(asf))

@@ -123,7 +123,7 @@ def _run_tracking(args, work: Path) -> dict:
 def _run_monkey(args, work: Path) -> dict:
     from app.stress.monkey import run_monkey
 
-    return run_monkey(work, seconds=args.seconds, seed=args.seed)
+    return run_monkey(work, seconds=args.seconds, seed=args.seed, progress=True)
 
 
 _RUNNERS = {"fuzz": _run_fuzz, "kill": _run_kill, "packages": _run_packages, "tracking": _run_tracking,

@@ -31,7 +31,38 @@ from pathlib import Path
 ACTION_INTERVAL_S = 0.08
 
 
-def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_s: float = 120.0) -> dict:
+def _run_with_bar(cmd: list[str], env: dict, seconds: float, timeout: float, progress: bool) -> tuple[int, str]:
+    """Run the app process; with ``progress`` show a bar of the monkey's seconds."""
+    import tempfile
+
+    with tempfile.TemporaryFile("w+") as log:
+        proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT, text=True,
+                                cwd=str(Path(__file__).resolve().parents[2]))
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=int(seconds), desc="monkey touches", unit="s")
+        start = time.monotonic()
+        try:
+            while proc.poll() is None:
+                if time.monotonic() - start > timeout:
+                    proc.kill()
+                    proc.wait()
+                    raise subprocess.TimeoutExpired(cmd, timeout)
+                time.sleep(1.0)
+                if bar is not None:
+                    bar.n = min(int(seconds), int(time.monotonic() - start))
+                    bar.refresh()
+        finally:
+            if bar is not None:
+                bar.close()
+        log.seek(0)
+        return proc.returncode, log.read()[-2000:]
+
+
+def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_s: float = 120.0,
+               progress: bool = False) -> dict:
     """Run the monkey for ``seconds`` in a subprocess; returns its summary."""
     work.mkdir(parents=True, exist_ok=True)
     db = work / "monkey.db"
@@ -42,10 +73,7 @@ def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_
                KIVY_HOME=str(work / "kivy_home"))
     cmd = [sys.executable, "-m", "app.stress.monkey", str(db), str(out), str(seconds), str(seed)]
     try:
-        done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=seconds + timeout_margin_s,
-                              cwd=str(Path(__file__).resolve().parents[2]))
-        rc = done.returncode
-        tail = (done.stdout + done.stderr)[-2000:]
+        rc, tail = _run_with_bar(cmd, env, seconds, seconds + timeout_margin_s, progress)
     except subprocess.TimeoutExpired:
         rc, tail = None, "the app did not finish (killed after the time limit)"
     result_file = out / "result.json"
