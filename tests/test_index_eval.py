@@ -162,3 +162,23 @@ def test_stratified_subset_keeps_class_shares():
     assert (labels.count("a"), labels.count("b"), labels.count("c")) == (30, 15, 5)
     with pytest.raises(EvaluationError):
         stratified_subset(clips, 101)
+
+
+def test_index_from_motions_and_damaged_npz(tmp_path):
+    from retrieval.index import MotionIndex
+
+    sk = make_skeleton()
+    motions = [make_motion(sk, frames=40, arm_swing=a, knee_bend=k, phase=p)
+               for a, k, p in ((20, 15, 0.0), (22, 15, 1.0), (80, 40, 0.0), (78, 42, 2.0))]
+    for i, m in enumerate(motions):
+        m.name = f"m{i}"
+    index = MotionIndex.from_motions(motions, ["slow", "slow", "big", "big"], dims=2, fps=30)
+    assert index.similar_to("m2", k=1)[0].trial == "m3"
+    assert index.similar_to("m0", k=1)[0].trial == "m1"
+    index.save(tmp_path / "idx")
+    with np.load(tmp_path / "idx" / "index.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["codes"] = arrays["codes"] + 10_000  # outside [0, 4^2)
+    np.savez(tmp_path / "idx" / "index.npz", **arrays)
+    with pytest.raises(IndexFormatError, match="inconsistent"):
+        MotionIndex.load(tmp_path / "idx")
