@@ -69,7 +69,7 @@ class ScenePreviewRenderer:
             self.first_of_class.setdefault(r["label"], r["trial"])
         self._key: str | None = None
         self._prepared: _Prepared | None = None
-        self._motions: dict[tuple[str, str], object] = {}
+        self.animator = SceneAnimator(self.clip_files, self.first_of_class, fps=fps)
 
     def __call__(self, scene: Scene, t: float) -> np.ndarray:
         return self.render(scene, t)
@@ -121,7 +121,7 @@ class ScenePreviewRenderer:
             renderer.add(f"path{i}", pyrender.Mesh.from_trimesh(path_ribbon(xz, width=0.01),
                                                                material=_material((255, 255, 255))))
             try:
-                design, motion = self._animate(character)
+                design, motion = self.animator.animate(character)
             except (StoryBeamError, ValueError, OSError) as exc:
                 prepared.problems.append(f"{character.kind} {character.id}: {exc}")
                 log.warning("3-D preview leaves out %s: %s", character.id, exc)
@@ -131,32 +131,68 @@ class ScenePreviewRenderer:
             prepared.rigs.append(rig)
         return prepared
 
+
+class SceneAnimator:
+    """Turns a story character into a retargeted motion laid on its sketched path.
+
+    Shared by the Play preview, the projector stage and the MP4 export so all three show
+    the same animation. ``place`` maps table metres ``(N, >=2)`` to scene ``(N, 2)`` (X, Z);
+    the stage uses a miniature of the table, hence ``character_height_m`` and ``place``
+    are parameters. Retargeted clips are cached (the same clip is reused across scenes).
+    """
+
+    def __init__(self, clip_files: dict[str, Path], first_of_class: dict[str, str], fps: float = 30.0,
+                 character_height_m: float = CHARACTER_HEIGHT_M, place=table_to_scene):
+        self.clip_files = clip_files
+        self.first_of_class = first_of_class
+        self.fps = fps
+        self.character_height_m = character_height_m
+        self.place = place
+        self._motions: dict[tuple, object] = {}
+
+    @classmethod
+    def from_library(cls, motions_dir: str | Path = MOTIONS_DIR, **kwargs) -> "SceneAnimator":
+        """Read ``labels.csv`` of a motion library (raises StoryBeamError naming it)."""
+        import csv
+        labels = Path(motions_dir) / "labels.csv"
+        try:
+            with open(labels, newline="", encoding="utf-8") as fh:
+                rows = list(csv.DictReader(fh))
+            clip_files = {r["trial"]: Path(motions_dir) / r["file"] for r in rows}
+        except (OSError, KeyError, UnicodeDecodeError, csv.Error) as exc:
+            raise StoryBeamError(f"{labels}: cannot read the motion library ({exc})") from None
+        first: dict[str, str] = {}
+        for r in rows:
+            first.setdefault(r["label"], r["trial"])
+        return cls(clip_files, first, **kwargs)
+
     def _clip(self, trial: str, design) -> object:
         """A library clip retargeted onto ``design`` (cached: the same clip is reused)."""
         from retrieval.motion_io import load_motion
         from retrieval.retarget import retarget
 
-        key = (trial, design.name if hasattr(design, "name") else str(id(design)))
+        key = (trial, design.name, round(float(design.height_m), 4))
         if key not in self._motions:
             path = self.clip_files.get(trial)
             if path is None:
-                raise StoryBeamError(f"clip {trial!r} is not in {self.motions_dir / 'labels.csv'}")
+                raise StoryBeamError(f"clip {trial!r} is not in the motion library's labels.csv")
             self._motions[key] = retarget(load_motion(path), design.skeleton)
         return self._motions[key]
 
-    def _animate(self, character: Character):
+    def animate(self, character: Character):
+        """``(design, motion)``: the character's chosen clip laid along its path (scene frame)."""
         from ar.characters import build_character
         from retrieval.path_follow import OneShot, TablePath, follow_path
         from retrieval.transitions import find_loop
 
-        design = build_character(CHARACTER_DESIGNS[character.kind], CHARACTER_HEIGHT_M)
+        design = build_character(CHARACTER_DESIGNS[character.kind], self.character_height_m)
         motion_class = character.motion.motion_class
         chosen = character.motion.clip_id or self.first_of_class.get(motion_class)
         if chosen is None:
             raise StoryBeamError(f"no clip of class {motion_class!r} in the library")
         pts = np.array(character.path)
         times = pts[:, 2] if np.all(np.diff(pts[:, 2]) > 0) else None
-        path = TablePath(table_to_scene(pts), times)
+        path = TablePath(self.place(pts), times)
         locomotion_trial = chosen if motion_class in CYCLIC_CLASSES else self.first_of_class.get("walk")
         locomotion = self._clip(locomotion_trial, design)
         loop = find_loop(locomotion, blend_frames=max(1, int(0.3 * locomotion.fps)))

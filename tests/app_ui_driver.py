@@ -250,7 +250,7 @@ def teacher_steps(app):
     yield lambda: tap(teacher().action_buttons["export_video"])
 
     def wait_video():
-        if teacher().status.text == "..." and state["polls"] < 1200:
+        if teacher().export_thread.is_alive() and state["polls"] < 1200:
             state["polls"] += 1
             return "again"
     yield wait_video
@@ -291,13 +291,111 @@ def play3d_steps(app):
     yield finish
 
 
+def projector3d_steps(app):
+    """The projector screen through the synthetic rig: wait for tracked stage frames, then
+    hold still on one frame and shoot it; then the camera view (Preview)."""
+    yield lambda: app.go("projector")
+    proj = lambda: app.sm.get_screen("projector")  # noqa: E731
+    state = {"polls": 0, "seen": 0}
+
+    def wait_frames(n=3, view="projector", t=None):
+        frame = proj().last_stage_frame
+        ready = proj().frames_shown >= state["seen"] + n and frame is not None and frame.view == view \
+            and (t is None or (frame.scene_id == app.editor.story.scenes[0].id and abs(frame.t - t) < 1e-6))
+        if not ready and not app.renderer.error and state["polls"] < 900:
+            state["polls"] += 1
+            return "again"
+        state["polls"] = 0
+    yield lambda: result.update(stage_available=app.stage_available())
+    yield wait_frames
+
+    def hold_still():
+        proj().player.pause()
+        state["seen"] = proj().frames_shown
+        proj().player.seek(1.0)
+    yield hold_still
+    yield lambda: wait_frames(1, t=1.0)
+
+    def record(name):
+        frame = proj().last_stage_frame
+        img = proj().stage_image
+        import numpy as np
+        np.save(OUT / f"{name}.npy", frame.rgb)
+        result[name] = {"state": frame.state, "view": frame.view, "character_px": frame.character_px,
+                        "live": frame.live, "label": proj().state_label.text, "problems": frame.problems,
+                        "image_box": [*img.to_window(*img.pos), *img.size], "norm_size": list(img.norm_image_size),
+                        "render_error": app.renderer.error}
+        shot(name)
+    yield lambda: record("projector3d")
+
+    def to_camera():
+        state["seen"] = proj().frames_shown
+        tap(proj().preview_button)
+    yield to_camera
+    yield lambda: wait_frames(1, "camera", t=1.0)
+    yield lambda: record("projector_camera")
+    yield finish
+
+
+def thumbs_steps(app):
+    """"More like this" with the real library: tiles show animated stick figures."""
+    ed = lambda: editor(app)  # noqa: E731
+    yield lambda: ed().select_character(app.editor.story.scenes[0].characters[0].id)
+    yield lambda: ed().more_like_this()
+    state = {"polls": 0}
+
+    def wait_figures():
+        if any(t.figure is None for t in ed().clip_tiles) and state["polls"] < 600:
+            state["polls"] += 1
+            return "again"
+    yield wait_figures
+
+    def record():
+        tiles = ed().clip_tiles
+        result["tiles"] = [{"trial": t.trial, "text": t.text, "figure": t.figure is not None,
+                            "points": t.figure.frames.points.round(4).tolist() if t.figure else None,
+                            "pose": t.figure.pose if t.figure else None,
+                            "box": [*t.to_window(*t.pos), *t.size]} for t in tiles]
+    yield record
+    yield lambda: shot("more_like_this_thumbs")
+    yield lambda: result.update(poses_later=[t.figure.pose if t.figure else None for t in ed().clip_tiles])
+    yield finish
+
+
+def import_steps(app):
+    """Teacher's package picker: tap a malformed package (refused), then a valid one."""
+    import hashlib
+    teacher = lambda: app.sm.get_screen("teacher")  # noqa: E731
+
+    def db_state():
+        files = sorted(p for p in DB.parent.iterdir() if p.name.startswith(DB.name) and p.is_file())
+        digest = hashlib.sha256(b"".join(p.name.encode() + p.read_bytes() for p in files)).hexdigest()
+        return {"stories": sorted(s.id for s in app.store.list_stories()), "digest": digest}
+
+    def unlock():
+        app.teacher_unlocked = True
+        app.go("teacher")
+    yield unlock
+    yield lambda: tap(teacher().action_buttons["import_package"])
+    picker = lambda: teacher().import_picker  # noqa: E731
+    yield lambda: result.update(tiles=sorted(Path(k).name for k in picker().tiles), before=db_state())
+    yield lambda: shot("import_picker")
+    yield lambda: tap(next(t for k, t in picker().tiles.items() if Path(k).name == "broken.zip"))
+    yield lambda: result.update(after_bad=db_state(), bad_message=picker().message, bad_ok=picker().ok)
+    yield lambda: tap(next(t for k, t in picker().tiles.items() if Path(k).name == "good.zip"))
+    yield lambda: result.update(after_good=db_state(), good_message=picker().message, good_ok=picker().ok,
+                                imported_titles=[s.title for s in app.store.list_stories()])
+    yield finish
+
+
 def finish():
     (OUT / "result.json").write_text(json.dumps(result))
     app_ref[0].stop()
 
 
 SCENARIOS = {"touch_story": touch_story_steps, "editor": editor_steps, "language": language_steps,
-             "teacher": teacher_steps, "play3d": play3d_steps}
+             "teacher": teacher_steps, "play3d": play3d_steps, "projector3d": projector3d_steps,
+             "thumbs": thumbs_steps, "import": import_steps}
 app_ref: list = []
 
 
@@ -308,6 +406,11 @@ def _prepend(item, iterator):
 
 class DriverApp(StoryBeamApp):
     def on_start(self):
+        if SCENARIO == "teacher" and self.video_exporter is not None:
+            # the real 3-D export (child process, camera view) at 2 frames per second: the
+            # UI wiring is what this scenario checks; tests/test_app_integration.py checks the video
+            from app.video_export import app_exporter
+            self.video_exporter = app_exporter("camera", fps=2.0)
         self._steps = iter(SCENARIOS[SCENARIO](self))
         self._flips = 0
         Window.bind(on_flip=self._count_flip)
@@ -353,17 +456,31 @@ class DriverApp(StoryBeamApp):
 
 if __name__ == "__main__":
     lang = os.environ.get("STORYBEAM_TEST_LANG", "en")
-    demo = SCENARIO in ("editor", "language", "play3d")
+    demo = SCENARIO in ("editor", "language", "play3d", "projector3d", "thumbs")
     if SCENARIO == "teacher":  # one saved story for the exports (made outside the UI)
         from app.demo import demo_story
         from app.storage import ProfileStore
         with ProfileStore(DB) as store:
             store.save_story(demo_story())
+    if SCENARIO == "import":  # a valid package and a malformed one in the inbox (made outside the UI)
+        import zipfile
+
+        from app.demo import demo_story
+        from app.storage import ProfileStore
+        inbox = DB.with_name(DB.name + ".inbox")
+        inbox.mkdir(parents=True, exist_ok=True)
+        with ProfileStore(DB.parent / "other" / "source.db") as store:
+            story = demo_story()
+            story.title = "Imported by tap"
+            store.save_story(story)
+            store.export_package(story.id, inbox / "good.zip")
+        with zipfile.ZipFile(inbox / "broken.zip", "w") as zf:
+            zf.writestr("manifest.json", "{not json")
+            zf.writestr("story.json", "{}")
     factory = None
-    if SCENARIO == "play3d":
-        def factory():
-            from app.scene_renderer import ScenePreviewRenderer
-            return ScenePreviewRenderer()
+    if SCENARIO in ("play3d", "projector3d"):
+        from app.stage import app_renderer_factory
+        factory = app_renderer_factory(DB.parent)
     catalog = MotionCatalog(Path(os.environ["STORYBEAM_TEST_MOTIONS"]), build_index=False) \
         if os.environ.get("STORYBEAM_TEST_MOTIONS") else MotionCatalog(build_index=False)
     app = DriverApp(DB, lang=lang, demo=demo, catalog=catalog, renderer_factory=factory)

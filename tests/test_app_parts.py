@@ -142,11 +142,12 @@ def test_story_video_export_writes_every_frame(tmp_path):
         pytest.skip(available())
     import imageio.v2 as imageio
     story = demo_story()
-    path = export_story_mp4(story, tmp_path / "demo.mp4", fps=10)
-    reader = imageio.get_reader(path)
+    result = export_story_mp4(story, tmp_path / "demo.mp4", fps=10, view="2d")  # the no-GL fallback
+    assert result.mode == "2d" and result.frames == sum(int(round(s.duration * 10)) for s in story.scenes)
+    reader = imageio.get_reader(result.path)
     assert reader.count_frames() == sum(int(round(s.duration * 10)) for s in story.scenes)
     first = reader.get_data(0)
     assert first.shape[:2] == (426, 640) and first.std() > 5
     with pytest.raises(VideoExportError):
         (tmp_path / "a_file").write_text("x")
-        export_story_mp4(story, tmp_path / "a_file" / "inside.mp4")  # parent is a file
+        export_story_mp4(story, tmp_path / "a_file" / "inside.mp4", view="2d")  # parent is a file

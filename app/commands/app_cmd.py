@@ -117,10 +117,9 @@ def run(args: argparse.Namespace) -> int:
     use_3d = args.preview == "3d" or (args.preview == "auto" and screenshot is None
                                       and importlib.util.find_spec("pyrender") is not None)
     factory = None
-    if use_3d:
-        def factory():
-            from app.scene_renderer import ScenePreviewRenderer
-            return ScenePreviewRenderer()
+    if use_3d:  # the Play preview and the projector stage, on one render thread
+        from app.stage import app_renderer_factory
+        factory = app_renderer_factory(db.parent)
     app = _LaunchedApp(db, lang=args.lang, story_id=args.story, demo=demo, start_screen=screen,
                        renderer_factory=factory)
     app.run()

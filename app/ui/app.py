@@ -61,6 +61,7 @@ class StoryBeamApp(App):
         self.renderer_factory = renderer_factory
         self.renderer = None
         self.video_exporter = None
+        self.video_view = "camera"  # teacher MP4s: what the audience sees on the table
         self.store: ProfileStore | None = None
         self.storage_problem: str | None = None
         self.editor: StoryEditor | None = None
@@ -107,7 +108,7 @@ class StoryBeamApp(App):
                                          lambda cb, frame: Clock.schedule_once(lambda dt: cb(frame), 0))
         from app import video_export
         if video_export.available() is None:
-            self.video_exporter = video_export.export_story_mp4
+            self.video_exporter = video_export.app_exporter(self.video_view)
         self.sm = ScreenManager(transition=NoTransition())
         for screen in (HomeScreen(name="home"), EditorScreen(name="editor"), PlayScreen(name="play"),
                        ProjectorScreen(name="projector"), PinScreen(name="pin"), TeacherScreen(name="teacher"),
@@ -230,6 +231,26 @@ class StoryBeamApp(App):
         if self.renderer is not None and self.renderer.alive:
             from app.story import Scene
             self.renderer.request(Scene.from_dict(scene.to_dict()), t, callback)  # a copy: the UI owns the original
+
+    def motion_thumbnails(self):
+        """The stick-figure thumbnails of the motion library (made on first use)."""
+        if getattr(self, "_thumbnails", None) is None:
+            from app.motion_thumbs import ThumbnailCache
+            self._thumbnails = ThumbnailCache(self.catalog.motions_dir)
+        return self._thumbnails
+
+    def stage_available(self) -> bool:
+        """True when the render thread can draw the projector stage (:mod:`app.stage`):
+        its renderer factory says so (``supports_stage``) and it has not failed."""
+        return (self.renderer is not None and self.renderer.alive
+                and bool(getattr(self.renderer_factory, "supports_stage", False)))
+
+    def request_stage_frame(self, scene, t: float, view: str, callback) -> None:
+        """Ask the render thread for a projector-stage frame (:class:`app.stage.StageFrame`)."""
+        if self.renderer is not None and self.renderer.alive:
+            from app.stage import StageJob
+            from app.story import Scene
+            self.renderer.request(StageJob(Scene.from_dict(scene.to_dict()), view), t, callback)
 
 
 __all__ = ["StoryBeamApp", "register_fonts", "FONT_PATH"]

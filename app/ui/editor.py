@@ -19,10 +19,12 @@ from app.gestures import find_spins, hop_time
 from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES
 from retrieval.errors import StoryBeamError
 from app.ui.art import MOTION_COLOURS, draw_background, draw_character_badge
+from app.ui.clip_tiles import ClipTile
 from app.ui.table_view import TableView, normalise_times
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 
 THUMB_DP = 96
+CLIP_TILE_DP = 150  # "more like this" tiles: big enough to see the stick figure move
 
 
 class SceneThumb(Widget):
@@ -331,12 +333,14 @@ class EditorScreen(Screen):
             clips = catalog.clips
         else:
             clips = catalog.similar(character.motion.clip_id or character.motion.motion_class)
-        view = ModalView(size_hint=(0.7, 0.8))
+        view = ModalView(size_hint=(0.8, 0.9))
         box = filled(BoxLayout(orientation="vertical", padding=dp(16), spacing=dp(10)), (1, 0.97, 0.9, 1))
         box.add_widget(big_label(t("motion_more") if show_all else t("more_like_this"), 24))
-        grid = GridLayout(cols=3, spacing=dp(8), size_hint_y=None, row_default_height=dp(BUTTON_DP),
+        grid = GridLayout(cols=3, spacing=dp(8), size_hint_y=None, row_default_height=dp(CLIP_TILE_DP),
                           row_force_default=True)
         grid.bind(minimum_height=grid.setter("height"))
+        thumbs = app.motion_thumbnails()
+        self.clip_tiles = []
         for clip in clips:
             icon = clip.label if clip.label in MOTION_COLOURS else "more"
 
@@ -344,9 +348,11 @@ class EditorScreen(Screen):
                 view.dismiss()
                 self._edit(lambda ed: ed.set_motion(self.scene.id, character.id, clip.label, clip.trial))
             name = t(f"motion_{clip.label}") if clip.label in MOTION_COLOURS else clip.label
-            grid.add_widget(IconButton(icon, f"{name}  {clip.trial}", on_press=pick, font_size=dp(13),
-                                       icon_colour=list(MOTION_COLOURS.get(clip.label, (0.4, 0.4, 0.4))),
-                                       selected=clip.trial == character.motion.clip_id))
+            tile = ClipTile(clip.trial, f"{name}  {clip.trial}", icon,
+                            MOTION_COLOURS.get(clip.label, (0.4, 0.4, 0.4)), thumbs, pick,
+                            selected=clip.trial == character.motion.clip_id)
+            self.clip_tiles.append(tile)
+            grid.add_widget(tile)
         if not clips:
             grid.add_widget(big_label(t("no_clips"), 20))
         scroll = ScrollView(do_scroll_x=False)

@@ -4,6 +4,12 @@ The preview is the top-down animation of each character along its path. When a 3
 renderer is available, frames come from :class:`app.render_bridge.RenderThread` (pyrender
 must render on its own long-lived thread; two GL contexts on the Kivy thread crash) and
 are shown as a texture in the same view.
+
+The projector screen shows :mod:`app.stage`: the scene's 3-D characters rendered from the
+projector's viewpoint through the tracked rig (a live camera with the profile's
+calibration files, else the synthetic rig), with the tracking state in a corner;
+*Preview* switches to the camera view (the light on the table, what the audience sees).
+Without a 3-D renderer it falls back to the 2-D characters on black and says so.
 """
 from __future__ import annotations
 
@@ -13,6 +19,8 @@ from kivy.graphics.texture import Texture
 from kivy.metrics import dp
 from kivy.uix.boxlayout import BoxLayout
 from kivy.uix.floatlayout import FloatLayout
+from kivy.uix.image import Image
+from kivy.uix.label import Label
 from kivy.uix.screenmanager import Screen
 from kivy.uix.slider import Slider
 from kivy.uix.widget import Widget
@@ -36,12 +44,21 @@ def locate(story: Story, t: float, scene_id: str | None = None) -> tuple[int, fl
     return 0, 0.0
 
 
+def rgb_texture(rgb) -> Texture:
+    """A Kivy texture of an (H, W, 3) uint8 image (rows top to bottom)."""
+    h, w = rgb.shape[:2]
+    texture = Texture.create(size=(w, h), colorfmt="rgb")
+    texture.blit_buffer(rgb[::-1].tobytes(), colorfmt="rgb", bufferfmt="ubyte")
+    return texture
+
+
 class _Player:
     """Clock-driven playback state shared by the play and projector screens."""
 
-    def __init__(self, screen: Screen, table: TableView, use_3d: bool = False):
+    def __init__(self, screen: Screen, table: TableView, use_3d: bool = False, on_scene_time=None):
         self.screen, self.table = screen, table
         self.use_3d = use_3d
+        self.on_scene_time = on_scene_time  # (scene, local time): the projector stage's request
         self.t = 0.0
         self.playing = False
         self.scene_only: str | None = None
@@ -70,15 +87,15 @@ class _Player:
         self.table.time = local
         if self.use_3d:
             App.get_running_app().request_frame(story.scenes[index], local, self._show_frame)
+        if self.on_scene_time:
+            self.on_scene_time(story.scenes[index], local)
         if self.on_time:
             self.on_time(self.t)
 
     def _show_frame(self, rgb) -> None:
         """Show a rendered frame (HxWx3 uint8) from the render thread as a texture."""
-        h, w = rgb.shape[:2]
-        texture = Texture.create(size=(w, h), colorfmt="rgb")
-        texture.blit_buffer(rgb[::-1].tobytes(), colorfmt="rgb", bufferfmt="ubyte")
-        self.table.frame_texture = texture
+        self.table.frame_texture = rgb_texture(rgb)
+
 
     def play(self) -> None:
         if self.t >= self.duration:
@@ -165,8 +182,12 @@ class PlayScreen(Screen):
 
 
 class ProjectorScreen(Screen):
-    """What the projector shows: black background, characters only; "preview" shows the
-    scene picture underneath so a child can check it on the tablet."""
+    """Full-screen projector output: the scene's 3-D characters from the projector's
+    viewpoint through the tracked rig (black = no light), the tracking state small in a
+    corner. *Preview* shows the camera view instead (the light on the table). Without a
+    3-D renderer: the 2-D characters on black (*Preview*: the place picture under them)."""
+
+    STATE_COLOURS = {"tracking": (0.3, 0.8, 0.3, 1), "holding": (0.95, 0.7, 0.2, 1), "lost": (0.9, 0.3, 0.3, 1)}
 
     def on_pre_enter(self, *args):
         self.refresh()
@@ -180,10 +201,26 @@ class ProjectorScreen(Screen):
         t = app.t
         self.clear_widgets()
         root = FloatLayout()
+        self.stage_view = "projector"
+        self.last_stage_frame = None
+        self.frames_shown = 0
         self.table = TableView(mode="projector", size_hint=(1, 1), pos_hint={"x": 0, "y": 0})
         root.add_widget(filled(Widget(size_hint=(1, 1)), (0, 0, 0, 1)))
-        root.add_widget(self.table)
-        self.player = _Player(self, self.table)
+        self.use_stage = app.stage_available()
+        # with the 3-D stage the 2-D table is kept out of the widget tree: redrawing it
+        # 30 times a second under the stage image would cost the render thread its CPU
+        self.table_holder = FloatLayout(size_hint=(1, 1), pos_hint={"x": 0, "y": 0})
+        if not self.use_stage:
+            self.table_holder.add_widget(self.table)
+        root.add_widget(self.table_holder)
+        self.stage_image = Image(size_hint=(1, 1), pos_hint={"x": 0, "y": 0}, fit_mode="contain", opacity=0)
+        root.add_widget(self.stage_image)
+        self.state_label = Label(text="" if self.use_stage else t("flat_2d"), font_size=dp(13),
+                                 color=(0.6, 0.6, 0.6, 1), size_hint=(None, None), size=(dp(260), dp(24)),
+                                 pos_hint={"right": 0.99, "top": 0.99}, halign="right", opacity=0.8)
+        self.state_label.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
+        root.add_widget(self.state_label)
+        self.player = _Player(self, self.table, on_scene_time=self._request_stage if self.use_stage else None)
         bar = BoxLayout(size_hint=(None, None), size=(dp(3 * 110), dp(BUTTON_DP)), pos_hint={"x": 0.01, "y": 0.01},
                         spacing=dp(6), opacity=0.85)
         bar.add_widget(IconButton("home", t("back"), on_press=lambda: app.go(app.projector_return)))
@@ -200,8 +237,42 @@ class ProjectorScreen(Screen):
         self.player.play()
 
     def toggle_preview(self) -> None:
+        if self.use_stage:
+            self.stage_view = "camera" if self.stage_view == "projector" else "projector"
+            self.preview_button.selected = self.stage_view == "camera"
+            self.player.seek(self.player.t)
+            return
         self.table.mode = "preview" if self.table.mode == "projector" else "projector"
         self.preview_button.selected = self.table.mode == "preview"
+
+    # -- the 3-D stage ----------------------------------------------------------------
+    def _request_stage(self, scene, local_t: float) -> None:
+        app = App.get_running_app()
+        self._stage_at = (scene, local_t)
+        if not app.stage_available():  # the renderer failed: back to the 2-D characters, and say so
+            self.stage_image.opacity = 0
+            if self.table.parent is None:
+                self.table_holder.add_widget(self.table)
+            self.state_label.text, self.state_label.color = app.t("flat_2d"), (0.6, 0.6, 0.6, 1)
+            return
+        app.request_stage_frame(scene, local_t, self.stage_view, self._show_stage)
+
+    def _show_stage(self, frame) -> None:
+        """A :class:`app.stage.StageFrame` from the render thread (on the UI thread)."""
+        if self.manager is None or self.manager.current != self.name:
+            return
+        app = App.get_running_app()
+        # the rig keeps moving while the story is paused or over: keep tracking and drawing
+        # (newest request wins, so a playing story's own requests take over)
+        scene, local_t = self._stage_at
+        app.request_stage_frame(scene, local_t, self.stage_view, self._show_stage)
+        self.last_stage_frame = frame
+        self.frames_shown += 1
+        self.stage_image.texture = rgb_texture(frame.rgb)
+        self.stage_image.opacity = 1
+        rig = app.t("rig_live") if frame.live else app.t("rig_preview")
+        self.state_label.text = f"{rig} · {app.t('track_' + frame.state)}"
+        self.state_label.color = self.STATE_COLOURS.get(frame.state, (0.6, 0.6, 0.6, 1))
 
 
 __all__ = ["PlayScreen", "ProjectorScreen", "locate"]

@@ -96,6 +96,17 @@ STRINGS: dict[str, dict[str, str]] = {
     "calib_done": {"en": "Calibration finished", "ja": "キャリブレーション かんりょう"},
     "storage_problem": {"en": "Could not open the saved stories: {why}", "ja": "ほぞんした おはなしを ひらけません: {why}"},
     "error": {"en": "Oops: {why}", "ja": "あれれ: {why}"},
+    "track_tracking": {"en": "tracking", "ja": "みえてる"},
+    "track_holding": {"en": "holding", "ja": "ちょっと まって"},
+    "track_lost": {"en": "board lost", "ja": "ボードが みえない"},
+    "rig_live": {"en": "rig", "ja": "リグ"},
+    "rig_preview": {"en": "preview rig", "ja": "れんしゅう リグ"},
+    "flat_2d": {"en": "2-D (no 3-D renderer)", "ja": "2D (3Dが つかえない)"},
+    "import_pick": {"en": "Tap a story package to import it", "ja": "読み込むパッケージをタップ"},
+    "import_none": {"en": "No story packages (.zip) found in:\n{where}", "ja": "パッケージ (.zip) がありません:\n{where}"},
+    "imported": {"en": "Imported \"{title}\"", "ja": "「{title}」を読み込みました"},
+    "export_progress": {"en": "Video {i}/{n}: {done}/{total} frames", "ja": "動画 {i}/{n}: {done}/{total} フレーム"},
+    "video_2d_note": {"en": "2-D video: {why}", "ja": "2D動画: {why}"},
 }
 
 

@@ -5,6 +5,7 @@ Teacher screens may use text entry (session and group names); the children's flo
 does."""
 from __future__ import annotations
 
+import logging
 import threading
 from pathlib import Path
 
@@ -23,6 +24,8 @@ from app.calibration_flow import CalibrationWizard
 from app.storage import StorageError
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
+
+log = logging.getLogger(__name__)
 
 _STEP_TEXT = {
     "board": {"en": "1. Put the printed board on the table", "ja": "1. いんさつした ボードを つくえに おく"},
@@ -222,21 +225,19 @@ class TeacherScreen(Screen):
         self._report(app.t("exported_to", path=f"{app.export_dir} ({len(paths)})"))
 
     def import_packages(self) -> None:
-        """Import every .zip in the profile's inbox folder (teachers copy packages there)."""
+        """Open the package picker (big tiles of the .zip files found in the inbox, the
+        profile's import folder and downloads); a tap imports one."""
+        from app.ui.import_picker import ImportPicker
         app = App.get_running_app()
-        inbox = app.inbox_dir
-        inbox.mkdir(parents=True, exist_ok=True)
-        done, problems = 0, []
-        for path in sorted(inbox.glob("*.zip")):
-            try:
-                app.store.import_package(path)
-                done += 1
-            except StorageError as exc:
-                problems.append(str(exc))
-        self._report(f"{inbox}: {done} imported" + ("\n" + "\n".join(problems) if problems else ""))
+        app.inbox_dir.mkdir(parents=True, exist_ok=True)
+        self.import_picker = ImportPicker(on_done=self._report)
+        self.import_picker.open()
 
     def export_videos(self) -> None:
-        """Write one MP4 per story (app.video_export) on a worker thread."""
+        """Write one MP4 per story (:func:`app.video_export.app_exporter`: the 3-D
+        characters as the audience sees them, in a child process; 2-D when 3-D rendering
+        is unavailable, which the status line and the log say) on a worker thread, with
+        per-story frame progress."""
         app = App.get_running_app()
         exporter = app.video_exporter
         if exporter is None:
@@ -250,15 +251,25 @@ class TeacherScreen(Screen):
                 lines.append(str(exc))
         app.store.log_activity("export videos", detail=str(len(stories)))
         export_dir = app.export_dir
+        self.export_results = []
 
         def work():
-            for story in stories:
+            for k, story in enumerate(stories, start=1):
+                def progress(done, total, k=k):
+                    text = app.t("export_progress", i=k, n=len(stories), done=done, total=total)
+                    Clock.schedule_once(lambda dt: self._report(text), 0)
                 try:
-                    lines.append(str(exporter(story, export_dir / f"story_{story.id}.mp4")))
+                    result = exporter(story, export_dir / f"story_{story.id}.mp4", progress)
+                    self.export_results.append(result)
+                    lines.append(str(result.path) + (f" ({result.mode})"))
+                    if result.note:
+                        lines.append(app.t("video_2d_note", why=result.note))
+                        log.warning("video export: %s", result.note)
                 except StoryBeamError as exc:
                     lines.append(str(exc))
             Clock.schedule_once(lambda dt: self._report("\n".join(lines)), 0)
-        threading.Thread(target=work, daemon=True).start()
+        self.export_thread = threading.Thread(target=work, name="storybeam-video-export", daemon=True)
+        self.export_thread.start()
         self._report("...")
 
 
