@@ -207,6 +207,19 @@ def _lookup_matrix(a: np.ndarray, b: np.ndarray, table: np.ndarray | SplitTable)
     return table[a[:, None], b[None, :]].astype(np.float64)
 
 
+def _euclidean_matrix(x: np.ndarray, y: np.ndarray, max_block_bytes: int = 32 << 20) -> np.ndarray:
+    """(nx, ny) Euclidean frame distances, computed in row blocks so the (rows, ny, d)
+    temporary stays under ``max_block_bytes`` (two 120 fps clips of 20 s would otherwise
+    need gigabytes)."""
+    nx, ny, d = x.shape[0], y.shape[0], x.shape[1]
+    rows = max(1, max_block_bytes // max(1, ny * d * 8))
+    out = np.empty((nx, ny))
+    for start in range(0, nx, rows):
+        block = x[start:start + rows, None, :] - y[None, :, :]
+        out[start:start + rows] = np.sqrt((block**2).sum(axis=2))
+    return out
+
+
 def _split_codes(codes: np.ndarray, table: SplitTable) -> tuple[np.ndarray, np.ndarray]:
     shift = 2 * table.low_dims
     return (codes & ((1 << shift) - 1)).astype(np.int32), (codes >> shift).astype(np.int32)
@@ -267,8 +280,7 @@ def dtw_features(
     if _resolve_backend(backend) == "numba":
         raw = _nb_dtw_euclid(x, y, lo, hi)
     else:
-        cost = np.sqrt(((x[:, None, :] - y[None, :, :]) ** 2).sum(axis=2))
-        raw = _np_dtw_cost(cost, lo, hi)
+        raw = _np_dtw_cost(_euclidean_matrix(x, y), lo, hi)
     return float(raw) / (len(x) + len(y)) if normalize else float(raw)
 
 
