@@ -47,8 +47,8 @@ PROTOCOL_ROWS = (
 )
 ABLATION_ROWS = (
     ("fast_parallel", "fast exact, bounds in prange (all cores)"),
-    ("diff_brute", "difference table, no bounds, no run-length"),
-    ("bounds_plain", "difference table + bounds + abandoning, plain DP"),
+    ("diff_brute", "difference table, brute force (plain DP)"),
+    ("bounds_plain", "+ bounds, abandoning, corridor (plain DP)"),
     ("runs_approx", "run-length block-corner approximation"),
     ("band", "fast exact with Sakoe-Chiba band"),
 )

@@ -335,7 +335,7 @@ if HAVE_NUMBA:
                               F, absdiff, shift, mask, colmin, R)
 
     @numba.njit(cache=True, nogil=True)
-    def _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx, out_dist, stats):  # pragma: no cover
+    def _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx, out_dist, stats, abandon=True):  # pragma: no cover
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
         (distance, then index). Writes out_idx/out_dist (k) and stats (4)."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
@@ -391,11 +391,15 @@ if HAVE_NUMBA:
                                          row_prev, row_next) / float(nx + lco[c + 1] - lco[c])
             ubs.sort()
             cap = ubs[k - 1]
+        if not abandon:
+            cap = inf
         for pos in range(ncand):
             c = order[pos]
             thr = out_dist[k - 1]
             if cap < thr:
                 thr = cap
+            if not abandon:
+                thr = inf  # brute force: every DTW runs to the end
             if lbs[c] > thr:
                 pruned += ncand - pos
                 break
@@ -482,7 +486,9 @@ class FastSearcher:
 
     ``table`` is the :class:`~retrieval.compact_table.DiffTable` of the quantiser's
     contribution ratios; ``band=None`` gives the seed's (unconstrained) distance.
-    ``run_length=False`` and ``use_bounds=False`` switch those ideas off (ablations).
+    ``run_length=False`` and ``use_bounds=False`` switch those ideas off (ablations;
+    without bounds there is no pruning and no early abandoning either: brute force over the
+    difference table).
     """
 
     def __init__(self, library: Sequence[np.ndarray], table: DiffTable, band: int | None = None,
@@ -550,7 +556,7 @@ class FastSearcher:
                 else:
                     _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs)
                 _refine(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs, k, use_rle, band,
-                        out_idx[qi], out_dist[qi], stats[qi])
+                        out_idx[qi], out_dist[qi], stats[qi], self.use_bounds)
         else:
             if not self.use_bounds:
                 raise DTWError("use_bounds=False is only supported for serial searches")

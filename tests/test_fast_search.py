@@ -156,6 +156,10 @@ def test_pruned_search_equals_brute_force(tables, backend, k, band):
         assert np.array_equal(res.indices, idx)
         assert np.array_equal(res.distances, dist)
     assert res.stats.candidates == len(qs) * len(lib)
+    if backend == "numba":  # the ablation variants answer alike
+        for kw in (dict(run_length=False), dict(run_length=False, use_bounds=False), dict(use_bounds=False)):
+            alt = FastSearcher(lib, diff, band=band, **kw).search(qs, k=k, parallel=False)
+            assert np.array_equal(alt.indices, idx) and np.array_equal(alt.distances, dist)
     assert res.stats.pruned + res.stats.abandoned + res.stats.completed == res.stats.candidates
 
 
