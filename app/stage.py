@@ -42,7 +42,7 @@ log = logging.getLogger(__name__)
 
 #: table metres -> metres on the board (the story plays as a miniature on the board)
 STAGE_SCALE = 0.28
-STAGE_CHARACTER_HEIGHT_M = 0.07
+STAGE_CHARACTER_HEIGHT_M = 0.10
 #: the rig renders and tracks at this size whatever the output size (as the demo does)
 RIG_SIZE = (640, 480)
 VIEWS = ("projector", "camera")

@@ -111,7 +111,9 @@ def test_projector_screen_preview_lights_only_the_characters(tmp_path):
     assert r["stage_available"]
     p = r["projector3d"]
     assert p["render_error"] is None and p["problems"] == []
-    assert p["state"] == "tracking" and not p["live"] and "tracking" in p["label"]
+    # a pose is known (the characters' light can hide markers for a frame: then "holding")
+    assert p["state"] in ("tracking", "holding") and not p["live"]
+    assert p["label"] == f"preview rig · {p['state']}"  # the corner label says the frame's state
     frame = np.load(out / "projector3d.npy").astype(np.float32)
     h, w = frame.shape[:2]
     ys, xs = np.mgrid[0:h, 0:w]
