@@ -28,6 +28,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -201,6 +202,7 @@ class StageRenderer:
         self._motions: list = []
         self.problems: list[str] = []
         self._tick = 0
+        self._t0 = time.monotonic()
         self._prev_light = np.zeros((*RIG_SIZE[::-1], 3), np.uint8)
 
     @property
@@ -252,7 +254,9 @@ class StageRenderer:
         frame_bgr = self.rig.capture(i, self._prev_light)
         cam = self.rig.camera_model
         estimate = estimate_board_pose(frame_bgr, self.board, cam.K, cam.dist)
-        track = self.tracker.update(estimate, i / self.rig_fps)
+        # a live rig is tracked in real time; the synthetic one at its own frame rate
+        stamp = time.monotonic() - self._t0 if self.rig.live else i / self.rig_fps
+        track = self.tracker.update(estimate, stamp)
         m = self.light_model
         light = np.zeros((m.height, m.width, 3), np.uint8)
         character_px: list = []
@@ -297,16 +301,27 @@ class AppRenderer:
     :class:`Scene`) and the projector stage (a :class:`StageJob`), created lazily so
     each GL context is made on the render thread."""
 
-    def __init__(self, profile_dir: Path | None = None):
+    def __init__(self, profile_dir: Path | None = None, rig=None):
+        """``rig``: use this rig instead of looking for one (tests)."""
         self.profile_dir = profile_dir
+        self.rig = rig
         self._preview = None
         self._stage: StageRenderer | None = None
 
     def __call__(self, job, t: float):
         if isinstance(job, StageJob):
             if self._stage is None:
-                self._stage = StageRenderer(profile_dir=self.profile_dir)
-            return self._stage.render(job.scene, t, job.view)
+                self._stage = StageRenderer(rig=self.rig, profile_dir=self.profile_dir)
+            try:
+                return self._stage.render(job.scene, t, job.view)
+            except StageError as exc:
+                if not self._stage.live:
+                    raise
+                # the rig's camera went away mid-show: keep the show going on the synthetic rig
+                log.warning("live rig failed, projector stage switches to the synthetic rig: %s", exc)
+                self._stage.close()
+                self._stage = StageRenderer(rig=SyntheticRig(self._stage.board))
+                return self._stage.render(job.scene, t, job.view)
         if self._preview is None:
             from app.scene_renderer import ScenePreviewRenderer
             self._preview = ScenePreviewRenderer()

@@ -167,3 +167,28 @@ def test_import_picker_imports_by_tap_and_refuses_a_bad_package(tmp_path):
     assert r["after_bad"] == r["before"]  # same stories, same database bytes
     assert r["good_ok"] is True and r["imported_titles"] == ["Imported by tap"]
     assert len(r["after_good"]["stories"]) == 1 and r["after_good"]["digest"] != r["before"]["digest"]
+
+
+@needs_library
+def test_stage_keeps_the_show_going_when_a_live_rig_fails():
+    """A live rig's frames are tracked in real time; when its camera stops, the app's
+    renderer carries on with the synthetic rig instead of killing the render thread."""
+    pytest.importorskip("pyrender")
+    from app.demo import demo_story
+    from app.stage import AppRenderer, StageError, StageJob, SyntheticRig
+    from ar.boards import DEFAULT_BOARD_SPEC, Board
+
+    class UnpluggedRig(SyntheticRig):
+        live = True
+
+        def capture(self, i, light):
+            if i >= 2:
+                raise StageError("the rig's camera stopped sending frames")
+            return super().capture(i, light)
+
+    renderer = AppRenderer(rig=UnpluggedRig(Board(DEFAULT_BOARD_SPEC)))
+    scene = demo_story().scenes[0]
+    frames = [renderer(StageJob(scene, "projector"), k / 10) for k in range(4)]
+    assert [f.live for f in frames] == [True, True, False, False]
+    assert all(f.state == "tracking" for f in frames[:2]) and frames[-1].character_px
+    assert frames[-1].rgb.max() > 100  # the characters are still lit

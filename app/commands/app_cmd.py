@@ -52,8 +52,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--screen", choices=SCREENS, default=None, help="with --screenshot: which screen (default editor)")
     p.add_argument("--size", default="1280x800", help="window size WxH (default 1280x800)")
     p.add_argument("--preview", choices=("auto", "3d", "2d"), default="auto",
-                   help="Play preview: 3-D characters (pyrender, on its own thread) or the 2-D top-down "
-                        "animation; auto = 3-D when pyrender is installed, except with --screenshot")
+                   help="Play preview and projector screen: 3-D characters (pyrender, on its own thread; "
+                        "the projector through the tracked rig) or the 2-D top-down animation; "
+                        "auto = 3-D when pyrender is installed, except with --screenshot")
     p.set_defaults(func=run)
 
 
