@@ -192,3 +192,22 @@ def test_stage_keeps_the_show_going_when_a_live_rig_fails():
     assert [f.live for f in frames] == [True, True, False, False]
     assert all(f.state == "tracking" for f in frames[:2]) and frames[-1].character_px
     assert frames[-1].rgb.max() > 100  # the characters are still lit
+
+
+def test_export_falls_back_to_2d_and_says_why_when_3d_cannot_render(tmp_path, monkeypatch):
+    import imageio.v2 as imageio
+
+    from app import video_export
+    if video_export.available():
+        pytest.skip(video_export.available())
+
+    def no_gl(story, fps, view):
+        raise RuntimeError("eglInitialize failed")
+        yield  # a generator, like the real one
+
+    monkeypatch.setattr(video_export, "story_frames_3d", no_gl)
+    story = _two_scene_story()
+    result = video_export.export_story_mp4(story, tmp_path / "s.mp4", fps=5)
+    assert result.mode == "2d" and "eglInitialize failed" in result.note and "2-D" in result.note
+    frames = [f for f in imageio.get_reader(result.path)]
+    assert len(frames) == video_export.frame_count(story, 5) == result.frames
