@@ -24,7 +24,10 @@ import atheris
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+# The loaders must be imported here, inside the context, to be instrumented
+# (retrieval.fuzz imports them lazily).
 with atheris.instrument_imports(include=["retrieval"]):
+    from retrieval import acclaim, bvh, kinematics, motion, rotations, textfile  # noqa: F401
     from retrieval import fuzz
     from retrieval.errors import MotionFormatError
 

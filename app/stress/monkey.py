@@ -248,7 +248,9 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
             Clock.schedule_once(self._act, ACTION_INTERVAL_S)
 
     threading.Thread(target=watchdog, daemon=True).start()
-    app = MonkeyApp(db, lang=rng.choice(["en", "ja"]), catalog=MotionCatalog(build_index=False))
+    # Start in the editor of the demo story (as a teacher's demo would), so even a short run
+    # edits and autosaves; the monkey reaches home and every other screen from there.
+    app = MonkeyApp(db, lang=rng.choice(["en", "ja"]), demo=True, catalog=MotionCatalog(build_index=False))
     try:
         app.run()
     except Exception as exc:  # noqa: BLE001
