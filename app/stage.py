@@ -199,7 +199,7 @@ class StageRenderer:
         self._key: str | None = None
         self._rigs: list = []
         self._names: list[str] = []
-        self._motions: list = []
+        self._hips_tracks: list = []
         self.problems: list[str] = []
         self._tick = 0
         self._t0 = time.monotonic()
@@ -222,7 +222,7 @@ class StageRenderer:
             return
         for name in self._names:
             self.projector.remove(name)
-        self._rigs, self._names, self._motions, self.problems = [], [], [], []
+        self._rigs, self._names, self._hips_tracks, self.problems = [], [], [], []
         for i, character in enumerate(scene.characters):
             if len(character.path) < 2:
                 continue
@@ -236,7 +236,7 @@ class StageRenderer:
             rig.bind(motion)
             self._rigs.append(rig)
             self._names.extend(rig.names)
-            self._motions.append(positions(motion)[:, 0])  # the hips' track, for character_px
+            self._hips_tracks.append(positions(motion)[:, 0])  # for character_px
         self._key = key
 
     def render(self, scene: Scene, t: float, view: str = "projector") -> StageFrame:
@@ -267,7 +267,7 @@ class StageRenderer:
                 rig.show_frame(frame)
             light = np.ascontiguousarray(self.projector.render()[..., :3])
             T_proj_from_scene = projector_from_scene(track.T_cam_from_board, self.rig.T_proj_from_cam, self.board)
-            for hips in self._motions:
+            for hips in self._hips_tracks:
                 f = int(np.clip(frame, 0, len(hips) - 1))
                 px = project_points(hips[f][None], T_proj_from_scene, m.K, np.zeros(5))[0]
                 character_px.append((float(px[0]), float(px[1])))
