@@ -22,6 +22,7 @@ imageio-ffmpeg; without ffmpeg, :func:`available` says why.
 from __future__ import annotations
 
 import argparse
+import atexit
 import json
 import logging
 import subprocess
@@ -194,6 +195,17 @@ def _chain(first, rest):
 
 
 # ---------------------------------------------------------------------------- child process
+_children: set = set()
+
+
+@atexit.register
+def _stop_children() -> None:
+    """An export must not outlive the app that asked for it (it would keep a core busy)."""
+    for proc in list(_children):
+        if proc.poll() is None:
+            proc.terminate()
+
+
 def export_in_subprocess(story: Story, path: str | Path, fps: float = 15.0, view: str = "camera",
                          progress: Callable[[int, int], None] | None = None) -> ExportResult:
     """Run :func:`export_story_mp4` in a child Python process (its own GL context, away
@@ -208,19 +220,28 @@ def export_in_subprocess(story: Story, path: str | Path, fps: float = 15.0, view
     cmd = [sys.executable, "-m", "app.video_export", story_json, str(path), "--view", view, "--fps", str(fps),
            "--progress-lines"]
     root = str(Path(__file__).resolve().parent.parent)
-    try:
-        proc = subprocess.Popen(cmd, cwd=root, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        result_line = ""
-        for line in proc.stdout:
-            if line.startswith("progress ") and progress:
-                done, total = (int(v) for v in line.split()[1:3])
-                progress(done, total)
-            elif line.startswith("result "):
-                result_line = line[len("result "):]
-        err = proc.stderr.read()
-        proc.wait()
-    finally:
-        Path(story_json).unlink(missing_ok=True)
+    proc = None
+    # stderr goes to a file: a chatty child must never block on a full pipe nobody reads
+    with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as err_file:
+        try:
+            proc = subprocess.Popen(cmd, cwd=root, stdout=subprocess.PIPE, stderr=err_file, text=True)
+            _children.add(proc)
+            result_line = ""
+            for line in proc.stdout:
+                if line.startswith("progress ") and progress:
+                    done, total = (int(v) for v in line.split()[1:3])
+                    progress(done, total)
+                elif line.startswith("result "):
+                    result_line = line[len("result "):]
+            proc.wait()
+        except OSError as exc:
+            raise VideoExportError(f"{path}: cannot start the video export ({exc})") from None
+        finally:
+            if proc is not None:
+                _children.discard(proc)
+            Path(story_json).unlink(missing_ok=True)
+        err_file.seek(0)
+        err = err_file.read()
     if proc.returncode != 0 or not result_line:
         last = [ln for ln in err.strip().splitlines() if ln.strip()][-1:] or [f"exit status {proc.returncode}"]
         raise VideoExportError(f"{path}: video export failed ({last[0]})")

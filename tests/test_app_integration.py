@@ -211,3 +211,14 @@ def test_export_falls_back_to_2d_and_says_why_when_3d_cannot_render(tmp_path, mo
     assert result.mode == "2d" and "eglInitialize failed" in result.note and "2-D" in result.note
     frames = [f for f in imageio.get_reader(result.path)]
     assert len(frames) == video_export.frame_count(story, 5) == result.frames
+
+
+def test_export_child_process_failure_is_one_plain_error(tmp_path):
+    from app.video_export import VideoExportError, available, export_in_subprocess
+    if available():
+        pytest.skip(available())
+    (tmp_path / "a_file").write_text("x")
+    with pytest.raises(VideoExportError) as err:
+        export_in_subprocess(_two_scene_story(), tmp_path / "a_file" / "inside.mp4", fps=5)
+    message = str(err.value)
+    assert "inside.mp4" in message and "video export failed" in message and "Traceback" not in message

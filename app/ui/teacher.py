@@ -242,6 +242,9 @@ class TeacherScreen(Screen):
         exporter = app.video_exporter
         if exporter is None:
             return self._report(app.t("not_available", why="ffmpeg"))
+        running = getattr(self, "export_thread", None)
+        if running is not None and running.is_alive():
+            return  # a second tap while videos are being written: the status line shows progress
         # read the stories here: the SQLite connection belongs to the UI thread
         stories, lines = [], []
         for summary in app.store.list_stories():
