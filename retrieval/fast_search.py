@@ -194,14 +194,17 @@ if HAVE_NUMBA:
             out[u] = m
 
     @numba.njit(cache=True, nogil=True)
-    def _plain_dtw_raw(a, b, F, absdiff, shift, mask, lo, hi, rest_row, rest_col, limit, norm, prev, cur):  # pragma: no cover
+    def _plain_dtw_raw(a_row, b, R, lo, hi, rest_row, rest_col, limit, norm, prev, cur):  # pragma: no cover
         """Row-by-row look-up DTW with band limits, early abandoning and a pruned corridor
         (cells whose value plus the bound of the rows/columns still to come exceeds the
         limit are dead; a row stops where nothing live can feed it): the numbers of
         :func:`retrieval.dtw._nb_dtw_table` with the difference table whenever the result
-        is within the limit, inf otherwise."""
-        nx, ny = a.shape[0], b.shape[0]
+        is within the limit, inf otherwise. ``a_row[i]`` is query frame i's row of ``R``
+        (:func:`_query_rows`), so a cell costs one look-up, as in the seed's full table."""
+        nx, ny = a_row.shape[0], b.shape[0]
         inf = np.inf
+        # the exact test (v + x) / norm > limit is done only near or above the limit
+        near = limit * norm * (1.0 - 1e-9)
         for j in range(ny):
             prev[j] = inf
         ihi = -1  # live column range of the previous row (row -1: only the virtual start)
@@ -209,7 +212,8 @@ if HAVE_NUMBA:
         for i in range(nx):
             for j in range(ny):
                 cur[j] = inf
-            ai = a[i]
+            Ri = R[a_row[i]]
+            rr = rest_row[i]
             jstart = lo[i]
             if i > 0 and ilo > jstart:
                 jstart = ilo
@@ -228,11 +232,11 @@ if HAVE_NUMBA:
                             best = prev[j - 1]
                     if j > 0 and cur[j - 1] < best:
                         best = cur[j - 1]
-                v = diff_cost(ai, b[j], F, absdiff, shift, mask) + best
+                v = np.float64(Ri[b[j]]) + best
                 x = rest_col[j]
-                if rest_row[i] > x:
-                    x = rest_row[i]
-                if v == inf or (v + x) / norm > limit:
+                if rr > x:
+                    x = rr
+                if v == inf or (v + x > near and (v + x) / norm > limit):
                     cur[j] = inf  # dead: no path through it can finish within the limit
                 else:
                     cur[j] = v
@@ -370,6 +374,12 @@ if HAVE_NUMBA:
         rm = np.empty(d1 - d0)
         rest_run = np.empty(nruns)
         rest_row = np.empty(nx)
+        row_didx = np.empty(nx, np.int64)  # query frame -> its distinct-code row of R
+        i = 0
+        for p in range(nruns):
+            for t in range(qrl[r0 + p]):
+                row_didx[i] = qrd[r0 + p]
+                i += 1
         rest_col = np.empty(big + 2)
         cmin = np.empty(4096 if ldv.shape[0] > 4096 else ldv.shape[0] + 1)
         # without exact arithmetic the bound sums may round differently from the DP: shrink them
@@ -439,7 +449,7 @@ if HAVE_NUMBA:
                         acc += per
                         i -= 1
                 _band_limits_nb(nx, ny, band, lo, hi)
-                raw = _plain_dtw_raw(qc[a0:a1], lc[b0:b1], F, absdiff, shift, mask, lo, hi, rest_row, rest_col, thr, norm,
+                raw = _plain_dtw_raw(row_didx, lc[b0:b1], R, lo, hi, rest_row, rest_col, thr, norm,
                                      row_prev, row_next)
             if raw == inf:
                 abandoned += 1

@@ -215,6 +215,7 @@ if HAVE_NUMBA:
         for j in range(1, ny + 1):
             row_prev[j] = inf
         ilo = 0  # live index range of row_prev (index = column + 1); outside it all inf
+        near = limit * norm * (1.0 - 1e-9)  # the exact division test runs only near the limit
         ihi = 0
         for p in range(kx):
             h = a_len[p]
@@ -248,7 +249,7 @@ if HAVE_NUMBA:
                     x = rest_col[idx - 1]
                     if rp > x:
                         x = rp
-                    if v == inf or (v + x) / norm > limit:
+                    if v == inf or (v + x > near and (v + x) / norm > limit):
                         row_next[idx] = inf
                     else:
                         if nlo < 0:
@@ -260,7 +261,7 @@ if HAVE_NUMBA:
                 left_alive = False
                 for s in range(1, h + 1):
                     v = right[s]
-                    if v == inf or (v + x) / norm > limit:
+                    if v == inf or (v + x > near and (v + x) / norm > limit):
                         left[s] = inf
                     else:
                         left[s] = v

@@ -72,7 +72,7 @@ def test_lower_bounds_never_exceed_the_normalised_dtw(tables):
     _, full, diff = tables
     rng = np.random.default_rng(11)
     gaps = []
-    for _ in range(400):
+    for _ in range(250):
         a, b = _slow_codes(rng), _slow_codes(rng)
         d = dtw_codes(a, b, full)
         for lb in (lb_kim(a, b, diff), lower_bound(a, b, diff)):
@@ -103,7 +103,7 @@ def test_run_length_block_dtw_is_bit_identical_to_the_seed_dtw(tables):
     _, full, diff = tables
     assert rle_is_exact(diff.F, 100_000)
     rng = np.random.default_rng(5)
-    for _ in range(600):
+    for _ in range(400):
         a, b = _slow_codes(rng, max_run=int(rng.choice([1, 3, 20]))), _slow_codes(rng)
         av, al = run_length_encode(a)
         bv, bl = run_length_encode(b)
