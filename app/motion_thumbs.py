@@ -111,15 +111,22 @@ class ThumbnailCache:
 
     def request(self, trials: list[str], on_ready: Callable[[str, StickFrames], None] | None = None) -> None:
         """Make thumbnails for ``trials`` in the background; ``on_ready(trial, frames)`` is
-        called on that thread for each one made (the UI re-posts it to its own thread)."""
+        called for each one made -- on the background thread, or at once for one already
+        made (the UI re-posts it to its own thread either way)."""
+        ready = []
         with self._cond:
             for trial in trials:
                 if trial not in self._done:
                     self._queue.append((trial, on_ready))
+                elif self._done[trial] is not None:
+                    ready.append(trial)
             self._cond.notify()
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name="storybeam-thumbs", daemon=True)
                 self._thread.start()
+        for trial in ready:  # made already (between the caller's get() and this call): answer now
+            if on_ready is not None:
+                on_ready(trial, self._done[trial])
 
     def wait(self, trials: list[str], timeout: float = 30.0) -> bool:
         """Block until every one of ``trials`` is done (tests, screenshots)."""
@@ -137,7 +144,9 @@ class ThumbnailCache:
                 while not self._queue:
                     self._cond.wait()
                 trial, on_ready = self._queue.pop(0)
-            if trial in self._done:
+            if trial in self._done:  # asked for twice (a list reopened): answer the later asker too
+                if self._done[trial] is not None and on_ready is not None:
+                    on_ready(trial, self._done[trial])
                 continue
             path = self.files.get(trial)
             try:

@@ -102,6 +102,23 @@ def test_stick_figures_differ_between_clips_and_show_a_jump(tmp_path):
     # a jump lifts the whole figure: its head's height varies much more than a walker's
     assert np.ptp(b[:, HEAD, 1]) > 2 * np.ptp(a[:, HEAD, 1])
     assert cache.failed("no-such-clip") and cache.get("no-such-clip") is None
+    # a list reopened while its figures were being made: every asker hears back
+    again = ThumbnailCache(LIBRARY, n_frames=4)
+    heard = []
+    again.request([walk, walk], lambda trial, frames: heard.append(trial))
+    assert again.wait([walk])
+    again.request([walk], lambda trial, frames: heard.append(trial))  # asked after it was made
+    assert _eventually(lambda: len(heard) == 3)
+
+
+def _eventually(check, seconds: float = 10.0) -> bool:
+    import time
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if check():
+            return True
+        time.sleep(0.01)
+    return check()
 
 
 @needs_library
