@@ -30,8 +30,8 @@ from tqdm import tqdm
 from .compact_table import DiffTable, table_bytes
 from .errors import StoryBeamError
 from .evaluation import evaluate, make_matcher, stratified_folds
-from .fast_search import FastSearcher, SearchStats
-from .matchers import Clip, MatcherError, stack_frames
+from .fast_search import FastSearcher, SearchStats, warm_up as warm_up_fast
+from .matchers import Clip, FastMatcher, MatcherError, stack_frames
 from .quantize import Quantizer
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -52,42 +52,6 @@ ABLATION_ROWS = (
     ("runs_approx", "run-length block-corner approximation"),
     ("band", "fast exact with Sakoe-Chiba band"),
 )
-
-
-class FastMatcher:
-    """:class:`~retrieval.fast_search.FastSearcher` behind the evaluation's matcher
-    interface. ``distances`` returns inf for every reference but the nearest, whose
-    distance is exact — enough for the 1-NN protocol's argmin."""
-
-    def __init__(self, name: str, dims: int = 6, band: int | None = None, mode: str = "exact",
-                 run_length: bool = True, use_bounds: bool = True, parallel: bool = False):
-        self.name = name
-        self.dims = dims
-        self.band = band
-        self.mode = mode
-        self.run_length = run_length
-        self.use_bounds = use_bounds
-        self.parallel = parallel
-        self.quantizer: Quantizer | None = None
-        self.searcher: FastSearcher | None = None
-        self.stats = SearchStats()
-
-    def fit(self, references: Sequence[Clip]) -> "FastMatcher":
-        self.quantizer = Quantizer.fit(stack_frames([c.features for c in references]), self.dims)
-        table = DiffTable.from_ratios(self.quantizer.ratios)
-        codes = [self.quantizer.encode(c.features) for c in references]
-        self.searcher = FastSearcher(codes, table, band=self.band, mode=self.mode,
-                                     run_length=self.run_length, use_bounds=self.use_bounds)
-        return self
-
-    def distances(self, query: Clip) -> np.ndarray:
-        if self.searcher is None or self.quantizer is None:
-            raise MatcherError("fast matcher used before fit()")
-        res = self.searcher.search([self.quantizer.encode(query.features)], k=1, parallel=self.parallel)
-        self.stats.add(np.array([res.stats.candidates, res.stats.pruned, res.stats.abandoned, res.stats.completed]))
-        out = np.full(len(self.searcher), np.inf)
-        out[res.indices[0, 0]] = res.distances[0, 0]
-        return out
 
 
 class DtaidistanceMatcher:
@@ -128,20 +92,6 @@ def load_clips(data: str | Path | None, fps: float, progress: bool) -> tuple[lis
                     f"({BUNDLED_LIBRARY}) instead — numbers are not comparable to the paper protocol")
     clips = load_dataset(data, fps=fps, progress=progress)
     return clips, str(data), note
-
-
-def warm_up_fast() -> None:
-    """Compile/load every fast-search kernel once, outside any timing."""
-    rng = np.random.default_rng(0)
-    table = DiffTable.from_ratios(np.array([0.4, 0.2, 0.1, 0.05, 0.03, 0.02]))
-    lib = [np.repeat(rng.integers(0, 4096, 6), 3).astype(np.int32) for _ in range(4)]
-    for mode in ("exact", "runs"):
-        for rl in (True, False):
-            s = FastSearcher(lib, table, mode=mode, run_length=rl)
-            s.search(lib[:1], parallel=False)
-            s.search(lib[:1], parallel=True)
-            s.search(lib[:2], parallel=True)
-    FastSearcher(lib, table, band=2).search(lib[:1], parallel=False)
 
 
 def _matcher_factory(band_frames: int, registry: list):

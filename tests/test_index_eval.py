@@ -182,3 +182,20 @@ def test_index_from_motions_and_damaged_npz(tmp_path):
     np.savez(tmp_path / "idx" / "index.npz", **arrays)
     with pytest.raises(IndexFormatError, match="inconsistent"):
         MotionIndex.load(tmp_path / "idx")
+
+
+def test_fast_quantized_method_finds_exactly_the_seed_methods_neighbours(cmu_dir):
+    """'quantized-fast' must answer every query of the protocol with the same nearest clip
+    (and so the same accuracy) as the seed's full-table search — on real CMU clips, where
+    near-ties make a wrong bound or a wrong table entry show."""
+    from retrieval.dataset import load_dataset, read_labels
+    from retrieval.evaluation import evaluate, stratified_subset
+
+    rows = read_labels(cmu_dir)
+    clips = load_dataset(cmu_dir, fps=15, progress=False, rows=rows)
+    clips = stratified_subset(clips, 60, seed=1)
+    res = evaluate(clips, ["quantized-fast", "quantized"], folds=3, dims=6, progress=False)
+    fast, seed = res["quantized-fast"], res["quantized"]
+    assert fast.total == seed.total == 60
+    assert fast.predictions == seed.predictions
+    assert fast.accuracy == seed.accuracy
