@@ -215,6 +215,8 @@ class ProfileStore:
         tables = conn.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]
         if app_id != APPLICATION_ID and (app_id != 0 or version != 0 or tables != 0):
             raise StorageError(f"{path}: not a StoryBeam database (an SQLite file from another program)")
+        if version < 0:  # a damaged header (found by the corruption campaign: IndexError in _migrate)
+            raise StorageError(f"{path}: the database is damaged (schema version {version})")
         if version > SCHEMA_VERSION:
             raise StorageError(f"{path}: made by a newer StoryBeam (schema {version}, this app knows up to {SCHEMA_VERSION})")
         check = conn.execute("PRAGMA quick_check").fetchone()[0]

@@ -46,6 +46,7 @@ def test_damaged_and_foreign_databases_raise_storage_error(tmp_path):
     assert out["original_unchanged"]
     assert out["refused"] >= 8  # at least every foreign file
     assert out["by_damage"]["foreign: another program's sqlite"] == 1
+    assert sum(v for k, v in out["by_damage"].items() if k.startswith("wal ")) == 15  # damaged WAL files
 
 
 @pytest.mark.parametrize("label", ["another program's sqlite", "newer StoryBeam schema", "png", "random", "zip"])
@@ -143,3 +144,20 @@ def test_commit_failure_rolls_back_and_store_stays_usable(tmp_path, monkeypatch)
     store.save_story(Story.new(title="after"))
     assert {s.title for s in store.list_stories()} == {"kept", "after"}
     store.close()
+
+
+@pytest.mark.parametrize("version", [-1, -2, -2**31])
+def test_negative_schema_version_is_damage_not_a_migration(tmp_path, version):
+    """Found by the corruption campaign: a damaged header with a negative user_version made
+    _migrate index MIGRATIONS backwards (IndexError, or applying the wrong migration)."""
+    db = tmp_path / "p.db"
+    with ProfileStore(db) as store:
+        store.save_story(Story.new())
+    conn = sqlite3.connect(db)
+    conn.execute(f"PRAGMA user_version={version}")
+    conn.commit()
+    conn.close()
+    before = db.read_bytes()
+    with pytest.raises(StorageError, match="damaged"):
+        ProfileStore(db)
+    assert db.read_bytes() == before

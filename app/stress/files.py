@@ -140,13 +140,25 @@ def run_db_corruption(work: Path, n: int, seed: int = 0) -> dict:
         for _ in range(20):
             store.save_story(sample_story(rng))
     original = good.read_bytes()
+    # A profile left by a crash: its recent commits still in an un-checkpointed WAL.
+    crashed = work / "crashed.db"
+    for suffix in ("", "-wal", "-shm"):
+        Path(f"{crashed}{suffix}").unlink(missing_ok=True)
+    store = ProfileStore(crashed)
+    store._conn.execute("PRAGMA wal_autocheckpoint=0")
+    for _ in range(10):
+        store.save_story(sample_story(rng))
+    crashed_main, crashed_wal = crashed.read_bytes(), Path(f"{crashed}-wal").read_bytes()
+    store.close()
     out = {"inputs": 0, "opened": 0, "refused": 0, "crashes": 0, "crash_examples": [], "by_damage": {}}
 
-    def one(label: str, data: bytes) -> None:
+    def one(label: str, data: bytes, wal: bytes | None = None) -> None:
         path = work / "damaged.db"
         for suffix in ("", "-wal", "-shm"):
             Path(f"{path}{suffix}").unlink(missing_ok=True)
         path.write_bytes(data)
+        if wal is not None:
+            Path(f"{path}-wal").write_bytes(wal)
         out["inputs"] += 1
         try:
             result = _try_store(path)
@@ -159,9 +171,13 @@ def run_db_corruption(work: Path, n: int, seed: int = 0) -> dict:
 
     for label, data in foreign_files().items():
         one(f"foreign: {label}", data)
-    for _ in range(n):
-        data, label = corrupt_bytes(rng, original)
-        one(label, data)
+    for k in range(n):
+        if k % 4 == 3:  # damage the WAL of a crashed profile instead of the main file
+            wal, label = corrupt_bytes(rng, crashed_wal)
+            one(f"wal {label}", crashed_main, wal)
+        else:
+            data, label = corrupt_bytes(rng, original)
+            one(label, data)
     out["original_unchanged"] = good.read_bytes() == original
     return out
 
