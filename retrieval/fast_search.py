@@ -10,8 +10,13 @@ same neighbours, same distances bit for bit, ties broken by the lower library in
 2. **lower bounds** (:mod:`retrieval.lower_bounds`) for every candidate, then candidates
    in increasing bound order; a candidate whose bound exceeds the current k-th best
    distance is *pruned* (and so are all after it);
-3. **early abandoning** — a DTW stops as soon as its frontier minimum plus the envelope
-   bound of the rows still to come exceeds the k-th best;
+3. **range-cover bound** (:mod:`retrieval.range_bound`, run-length exact mode) — for a
+   candidate that survives its envelope bound, an order-aware bound over runs,
+   O(runs × runs): the candidate is rejected without a DTW when it exceeds the k-th best,
+   and its backward pass gives the exact DTW a per-(row-run, column-run) "cost still to
+   come" that is never below the envelope's (``range_bound=False`` switches it off);
+   **early abandoning** — a DTW stops as soon as its frontier minimum plus the bound of
+   the rows still to come exceeds the k-th best;
 4. **run-length DTW** (:mod:`retrieval.runlength`) — exact block DP over runs of equal
    codes, used when :func:`~retrieval.runlength.rle_is_exact` holds (plain DP otherwise);
 5. **parallelism** — a batch of queries runs in a numba ``prange`` (one query per
@@ -37,6 +42,7 @@ from .lower_bounds import distinct_counts
 from .runlength import rle_is_exact, run_length_encode
 
 if HAVE_NUMBA:
+    from .range_bound import range_cover_raw, range_cover_suffix
     from .runlength import diff_cost, rle_dtw_raw
 
 #: "exact": the seed's distance; "runs": the block-corner run-length approximation.
@@ -109,6 +115,7 @@ class SearchStats:
     pruned: int = 0
     abandoned: int = 0
     completed: int = 0
+    range_rejected: int = 0  # of the abandoned: rejected by the range-cover bound before the exact DTW
 
     @property
     def pruned_fraction(self) -> float:
@@ -123,10 +130,13 @@ class SearchStats:
         self.pruned += int(arr[1])
         self.abandoned += int(arr[2])
         self.completed += int(arr[3])
+        if len(arr) > 4:
+            self.range_rejected += int(arr[4])
 
     def as_dict(self) -> dict:
         return {"candidates": self.candidates, "pruned": self.pruned, "abandoned": self.abandoned,
-                "completed": self.completed, "pruned_fraction": self.pruned_fraction,
+                "completed": self.completed, "range_rejected": self.range_rejected,
+                "pruned_fraction": self.pruned_fraction,
                 "abandoned_fraction": self.abandoned_fraction}
 
 
@@ -134,38 +144,46 @@ class SearchStats:
 if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
-    def _query_rows(q_dv, F, absdiff, shift, mask):  # pragma: no cover
-        """R[u, v] = D[q_dv[u], v] for every code v (float32, exact: the table's values are
-        float32): after this one pass per query, every bound costs one load per cell."""
+    def _query_rows(q_dv, vocab, F, absdiff, shift, mask):  # pragma: no cover
+        """R[u, v] = D[q_dv[u], v] for every code v of the library's vocabulary (float32,
+        exact: the table's values are float32; the other columns are never read, so they
+        are left unset — the library uses about a quarter of the 4ⁿ codes), and per code v
+        its cheapest query code, colmin[v] = min_u R[u, v] (inf outside the vocabulary).
+        After this one pass per query every bound costs one load per cell, and a
+        candidate's column envelope costs one load per distinct candidate code."""
         size = F.shape[0]
         R = np.empty((q_dv.shape[0], size), np.float32)
+        colmin = np.full(size, np.inf)
         for u in range(q_dv.shape[0]):
-            for v in range(size):
-                R[u, v] = F[np.int64(absdiff[q_dv[u] & mask, v & mask]) | (np.int64(absdiff[q_dv[u] >> shift, v >> shift]) << shift)]
-        return R
+            for t in range(vocab.shape[0]):
+                v = vocab[t]
+                x = F[np.int64(absdiff[q_dv[u] & mask, v & mask]) | (np.int64(absdiff[q_dv[u] >> shift, v >> shift]) << shift)]
+                R[u, v] = x
+                d = np.float64(x)
+                if d < colmin[v]:
+                    colmin[v] = d
+        return R, colmin
 
     @numba.njit(cache=True, nogil=True)
-    def _lb_pair(q_dv, q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
+    def _lb_pair(q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
                  F, absdiff, shift, mask, colmin, R):  # pragma: no cover
-        """Normalised max(LB_Kim, envelope rows, envelope columns)."""
+        """Normalised max(LB_Kim, envelope rows, envelope columns). ``R`` and ``colmin``
+        come from :func:`_query_rows`: the rows need every (query code, candidate code)
+        pair, the columns one load per distinct candidate code."""
         inf = np.inf
         nv = c_dv.shape[0]
-        for v in range(nv):
-            colmin[v] = inf
         rows = 0.0
-        for u in range(q_dv.shape[0]):
+        for u in range(q_dc.shape[0]):
             m = inf
             Ru = R[u]
             for v in range(nv):
                 d = np.float64(Ru[c_dv[v]])
                 if d < m:
                     m = d
-                if d < colmin[v]:
-                    colmin[v] = d
             rows += m * q_dc[u]
         cols = 0.0
         for v in range(nv):
-            cols += colmin[v] * c_dc[v]
+            cols += colmin[c_dv[v]] * c_dc[v]
         kim = diff_cost(q_first, c_first, F, absdiff, shift, mask)
         if nx > 1 or ny > 1:
             kim += diff_cost(q_last, c_last, F, absdiff, shift, mask)
@@ -312,34 +330,31 @@ if HAVE_NUMBA:
             hi[i] = int(min(max(y, 0.0), ny - 1))
 
     @numba.njit(cache=True, nogil=True)
-    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, out):  # pragma: no cover
+    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, out):  # pragma: no cover
+        """Bounds (:func:`_lb_pair`) of every candidate."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
-        colmin = np.empty(4096 if ldv.shape[0] > 4096 else ldv.shape[0] + 1)
         for c in range(lco.shape[0] - 1):
             b0, b1 = lco[c], lco[c + 1]
-            nvb = ldo[c + 1] - ldo[c]
-            if colmin.shape[0] < nvb:
-                colmin = np.empty(nvb)
-            out[c] = _lb_pair(qdv[qdo[qi]:qdo[qi + 1]], qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
+            out[c] = _lb_pair(qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
                               ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
                               F, absdiff, shift, mask, colmin, R)
 
     @numba.njit(cache=True, nogil=True, parallel=True)
-    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, R, out):  # pragma: no cover
+    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, R, colmin, out):  # pragma: no cover
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
         for c in numba.prange(lco.shape[0] - 1):
             b0, b1 = lco[c], lco[c + 1]
-            colmin = np.empty(ldo[c + 1] - ldo[c])
-            out[c] = _lb_pair(qdv[qdo[qi]:qdo[qi + 1]], qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
+            out[c] = _lb_pair(qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
                               ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
                               F, absdiff, shift, mask, colmin, R)
 
     @numba.njit(cache=True, nogil=True)
-    def _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx, out_dist, stats, abandon=True):  # pragma: no cover
+    def _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx, out_dist, stats, abandon=True,
+                range_bound=False):  # pragma: no cover
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
         (distance, then index). Writes out_idx/out_dist (k) and stats (4)."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
@@ -387,6 +402,23 @@ if HAVE_NUMBA:
         pruned = 0
         abandoned = 0
         completed = 0
+        range_rejected = 0
+        # range-cover bound (retrieval.range_bound): work arrays
+        use_range = range_bound and use_rle == 1 and band < 0
+        maxruns = 1
+        for c in range(ncand):
+            if lro[c + 1] - lro[c] > maxruns:
+                maxruns = lro[c + 1] - lro[c]
+        wide = maxruns if maxruns > nruns else nruns
+        cost_buf = np.empty(nruns * maxruns if use_range else 1)
+        rest2_buf = np.empty(nruns * maxruns)
+        before = np.empty(nruns)
+        rest_crun = np.empty(maxruns)
+        w_f = np.empty(wide)
+        w_g = np.empty(wide)
+        w_min = np.empty(wide)
+        w_sg = np.empty(wide)
+        w_acc = np.empty(wide)
         # Exact mode with exact arithmetic: the block-corner DTW of a few best-bound
         # candidates is an upper bound of their exact distance, so its k-th smallest value
         # bounds the k-th best distance from above before any exact DTW has run.
@@ -432,12 +464,41 @@ if HAVE_NUMBA:
                     rest_col[j] = acc * safety
                     acc += per
                     j -= 1
+            kyc = lro[c + 1] - lro[c]
+            rest2 = rest2_buf[:nruns * kyc].reshape((nruns, kyc))
+            if use_range:
+                # order-aware bound and "cost still to come" (retrieval.range_bound)
+                C = cost_buf[:nruns * kyc].reshape((nruns, kyc))
+                for p in range(nruns):
+                    Rp = R[qrd[r0 + p]]
+                    for q in range(kyc):
+                        C[p, q] = np.float64(Rp[lrv[lro[c] + q]])
+                acc = 0.0
+                for p in range(nruns):
+                    before[p] = acc
+                    acc += rm[qrd[r0 + p]] * qrl[r0 + p]
+                lb_raw = range_cover_suffix(C, qrl[r0:r1], before, thr, norm, rest2, w_f, w_g, w_min, w_sg, w_acc)
+                if lb_raw != inf and not lb_raw / norm > thr and thr < inf:
+                    j = -1
+                    for q in range(kyc):
+                        j += lrl[lro[c] + q]
+                        rest_crun[q] = rest_col[j]
+                    lb_raw = range_cover_raw(C, lrl[lro[c]:lro[c + 1]], True, rest_crun, thr, norm,
+                                             w_f, w_g, w_min, w_sg, w_acc)
+                if lb_raw == inf or lb_raw / norm > thr:
+                    abandoned += 1
+                    range_rejected += 1
+                    continue
+            else:
+                for p in range(nruns):
+                    for q in range(kyc):
+                        rest2[p, q] = rest_run[p]
             if use_rle == 2 and band < 0:
                 raw = _runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
                                     F, absdiff, shift, mask, rest_run, thr, norm, row_prev, row_next)
             elif use_rle == 1 and band < 0:
                 raw = rle_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
-                                  F, absdiff, shift, mask, rest_run, rest_col, thr, norm,
+                                  F, absdiff, shift, mask, rest2, rest_col, thr, norm,
                                   row_prev, row_next, left, right, buf_a, buf_b, dq)
             else:
                 i = nx - 1
@@ -469,16 +530,18 @@ if HAVE_NUMBA:
         stats[1] = pruned
         stats[2] = abandoned
         stats[3] = completed
+        stats[4] = range_rejected
 
     @numba.njit(cache=True, nogil=True, parallel=True)
-    def _search_batch(Q, L, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats):  # pragma: no cover
+    def _search_batch(Q, L, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):  # pragma: no cover
         nq = Q[1].shape[0] - 1
         ncand = L[1].shape[0] - 1
         for qi in numba.prange(nq):
             lbs = np.empty(ncand)
-            R = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], F, absdiff, shift, mask)
-            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, lbs)
-            _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi])
+            R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
+            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs)
+            _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi],
+                    True, range_bound)
 
 
 # --------------------------------------------------------------------------- public API
@@ -496,14 +559,15 @@ class FastSearcher:
 
     ``table`` is the :class:`~retrieval.compact_table.DiffTable` of the quantiser's
     contribution ratios; ``band=None`` gives the seed's (unconstrained) distance.
-    ``run_length=False`` and ``use_bounds=False`` switch those ideas off (ablations;
-    without bounds there is no pruning and no early abandoning either: brute force over the
-    difference table).
+    ``run_length=False``, ``use_bounds=False`` and ``range_bound=False`` switch those ideas
+    off (ablations; without bounds there is no pruning and no early abandoning either:
+    brute force over the difference table; the range-cover bound needs the exact
+    run-length DP, so it is used only with ``run_length`` and no band).
     """
 
     def __init__(self, library: Sequence[np.ndarray], table: DiffTable, band: int | None = None,
                  backend: str = "auto", run_length: bool = True, use_bounds: bool = True,
-                 mode: str = "exact"):
+                 mode: str = "exact", range_bound: bool = True):
         if band is not None and band < 0:
             raise DTWError(f"band must be >= 0, got {band}")
         if mode not in MODES:
@@ -511,10 +575,12 @@ class FastSearcher:
         if mode == "runs" and band is not None:
             raise DTWError("the run-length approximation ('runs' mode) has no band")
         self.mode = mode
+        self.range_bound = bool(range_bound)
         self.table = table
         self.band = band
         self.backend = _resolve_backend(backend)
         self.library = PackedCodes.from_sequences(library, table.size)
+        self._vocab = np.unique(self.library.dist_val)  # the codes the library uses
         self.use_bounds = use_bounds
         longest = int(self.library.lengths.max())
         self._longest = longest
@@ -549,7 +615,7 @@ class FastSearcher:
         nq = len(packed)
         out_idx = np.full((nq, k), -1, np.int64)
         out_dist = np.full((nq, k), np.inf)
-        stats = np.zeros((nq, 4), np.int64)
+        stats = np.zeros((nq, 5), np.int64)
         use_rle = self._kernel(int(packed.lengths.max()))
         band = -1 if self.band is None else int(self.band)
         Q, L = packed.arrays(), self.library.arrays()
@@ -557,20 +623,21 @@ class FastSearcher:
         if nq == 1 or not parallel:
             for qi in range(nq):
                 lbs = np.empty(len(self.library))
-                R = _query_rows(packed.dist_val[packed.dist_off[qi]:packed.dist_off[qi + 1]], t.F, t.absdiff,
-                                self._shift, self._mask)
+                R, colmin = _query_rows(packed.dist_val[packed.dist_off[qi]:packed.dist_off[qi + 1]], self._vocab,
+                                        t.F, t.absdiff, self._shift, self._mask)
                 if not self.use_bounds:
                     lbs[:] = 0.0
                 elif parallel:
-                    _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs)
+                    _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs)
                 else:
-                    _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs)
+                    _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs)
                 _refine(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs, k, use_rle, band,
-                        out_idx[qi], out_dist[qi], stats[qi], self.use_bounds)
+                        out_idx[qi], out_dist[qi], stats[qi], self.use_bounds, self.range_bound)
         else:
             if not self.use_bounds:
                 raise DTWError("use_bounds=False is only supported for serial searches")
-            _search_batch(Q, L, t.F, t.absdiff, self._shift, self._mask, k, use_rle, band, out_idx, out_dist, stats)
+            _search_batch(Q, L, self._vocab, t.F, t.absdiff, self._shift, self._mask, k, use_rle, band, out_idx, out_dist, stats,
+                          self.range_bound)
         res = SearchResult(out_idx, out_dist)
         for row in stats:
             res.stats.add(row)
@@ -702,6 +769,7 @@ def warm_up() -> None:
         for rl in (True, False):
             s = FastSearcher(lib, table, mode=mode, run_length=rl)
             s.search(lib[:1], parallel=False)
+            FastSearcher(lib, table, mode=mode, run_length=rl, range_bound=False).search(lib[:1], parallel=False)
             s.search(lib[:1], parallel=True)
             s.search(lib[:2], parallel=True)
     FastSearcher(lib, table, band=2).search(lib[:1], parallel=False)

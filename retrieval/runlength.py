@@ -198,9 +198,12 @@ if HAVE_NUMBA:
     def rle_dtw_raw(a_val, a_len, b_val, b_len, F, absdiff, shift, mask, rest, rest_col, limit, norm,
                     row_prev, row_next, left, right, buf_a, buf_b, dq):  # pragma: no cover
         """Raw DTW over runs. The block cost is ``D[a_val[p], b_val[q]]`` through the
-        difference table (F, absdiff, shift, mask); ``rest[p]`` a lower bound
-        of the cost of the rows after row-run p, ``rest_col[j]`` one of the columns after
-        column j. A cell with (D + max(rest[p], rest_col[j])) / norm > limit is marked dead
+        difference table (F, absdiff, shift, mask); ``rest[p, q]`` a lower bound
+        of the cost of the rows after row-run p for a path that is in column-run q at the
+        end of row-run p (e.g. the envelope suffix, the same for every q, or the
+        order-aware :func:`retrieval.range_bound.range_cover_suffix`), ``rest_col[j]`` one
+        of the columns after column j. A cell with (D + max(rest[p, q], rest_col[j])) / norm
+        > limit is marked dead
         (what is left of any path through it covers all later rows and all later columns),
         blocks no live cell can reach are skipped, and the result is inf as soon as a
         row-run has no live cell (early abandoning). With ``limit = inf`` nothing is cut. Work arrays:
@@ -219,7 +222,6 @@ if HAVE_NUMBA:
         ihi = 0
         for p in range(kx):
             h = a_len[p]
-            rp = rest[p]
             for j in range(ny + 1):
                 row_next[j] = inf
             for s in range(h + 1):
@@ -238,6 +240,7 @@ if HAVE_NUMBA:
                 if j0 > ihi and not left_alive:
                     break  # nothing live can reach the remaining blocks of this row-run
                 w = b_len[q]
+                rp = rest[p, q]
                 c = diff_cost(a_val[p], b_val[q], F, absdiff, shift, mask)
                 _block(row_prev[j0:j0 + w + 1], left, h, w, c,
                        row_next[j0:j0 + w + 1], right, buf_a, buf_b, dq)

@@ -14,6 +14,7 @@ from retrieval.errors import StoryBeamError
 from retrieval.fast_search import FastSearcher, PackedCodes, brute_force, brute_force_runs
 from retrieval.lower_bounds import envelope_sums, lb_kim, lower_bound
 from retrieval.quantize import Quantizer, full_table
+from retrieval.range_bound import range_cover_numpy, range_cover_raw, range_cover_suffix, range_lower_bound
 from retrieval.runlength import rle_dtw_numpy, rle_dtw_raw, rle_is_exact, run_length_decode, run_length_encode
 
 
@@ -107,11 +108,160 @@ def test_run_length_block_dtw_is_bit_identical_to_the_seed_dtw(tables):
         a, b = _slow_codes(rng, max_run=int(rng.choice([1, 3, 20]))), _slow_codes(rng)
         av, al = run_length_encode(a)
         bv, bl = run_length_encode(b)
-        raw = rle_dtw_raw(av, al, bv, bl, diff.F, diff.absdiff, 6, 63, np.zeros(len(av)), np.zeros(len(b)),
+        raw = rle_dtw_raw(av, al, bv, bl, diff.F, diff.absdiff, 6, 63, np.zeros((len(av), len(bv))), np.zeros(len(b)),
                           np.inf, 1.0, *_work(len(a), len(b)))
         ref = dtw_codes(a, b, full, normalize=False, backend="numba")
         assert raw == ref
         assert rle_dtw_numpy(av, al, bv, bl, diff.lookup(av[:, None], bv[None, :])) == ref
+
+
+# ------------------------------------------------------------------ range-cover bound
+def _range_parts(a, b, diff):
+    av, al = run_length_encode(a)
+    bv, bl = run_length_encode(b)
+    return diff.lookup(av[:, None], bv[None, :]), al, bl
+
+
+def _work_ranges(n: int):
+    return tuple(np.empty(n) for _ in range(5))
+
+
+def _cost_to_go_rows(cost: np.ndarray, al: np.ndarray, bl: np.ndarray) -> np.ndarray:
+    """Exact minimum cost of the rows after run p over paths whose last cell of run p lies
+    in column run q (brute force on the expanded grid, for the rest2 check)."""
+    full = np.repeat(np.repeat(cost, al, axis=0), bl, axis=1)
+    nx, ny = full.shape
+    back = np.full((nx + 1, ny + 1), np.inf)  # back[i, j]: cheapest from cell (i, j) to the end, inclusive
+    back[nx - 1, ny - 1] = full[nx - 1, ny - 1]
+    for i in range(nx - 1, -1, -1):
+        for j in range(ny - 1, -1, -1):
+            if i == nx - 1 and j == ny - 1:
+                continue
+            back[i, j] = full[i, j] + min(back[i + 1, j], back[i, j + 1], back[i + 1, j + 1])
+    row_end = np.cumsum(al) - 1
+    col_of = np.repeat(np.arange(len(bl)), bl)
+    out = np.full((len(al), len(bl)), np.inf)
+    for p in range(len(al) - 1):
+        i = row_end[p]
+        for j in range(ny):  # the path leaves (i, j) downwards or diagonally into run p + 1
+            nxt = min(back[i + 1, j], back[i + 1, j + 1] if j + 1 < ny else np.inf)
+            out[p, col_of[j]] = min(out[p, col_of[j]], nxt)
+    out[-1] = 0.0
+    return out
+
+
+def test_range_bound_never_exceeds_the_dtw_and_is_tighter_than_the_envelope(tables):
+    _, full, diff = tables
+    rng = np.random.default_rng(41)
+    tighter = 0
+    for _ in range(300):
+        a, b = _slow_codes(rng, max_runs=int(rng.choice([3, 25, 40]))), _slow_codes(rng)
+        d = dtw_codes(a, b, full)
+        lb = range_lower_bound(a, b, diff)
+        assert lb <= d, (a, b, lb, d)
+        assert lb >= max(envelope_sums(a, b, diff)) / (len(a) + len(b))  # never looser than the envelope
+        tighter += lb > lower_bound(a, b, diff)
+        # the compiled kernels give the reference numbers, forwards, backwards and transposed
+        cost, al, bl = _range_parts(a, b, diff)
+        n = max(len(al), len(bl)) + 1
+        rows = range_cover_numpy(cost, al)
+        assert range_cover_raw(cost, al, False, np.zeros(len(al)), np.inf, 1.0, *_work_ranges(n)) == rows
+        assert range_cover_raw(cost, bl, True, np.zeros(len(bl)), np.inf, 1.0, *_work_ranges(n)) == \
+            range_cover_numpy(cost.T, bl)
+        rest2 = np.empty((len(al), len(bl)))
+        assert range_cover_suffix(cost, al, np.zeros(len(al)), np.inf, 1.0, rest2, *_work_ranges(n)) == rows
+    assert tighter > 100  # it does see the order: often strictly above the envelope bound
+
+
+def test_range_bound_on_quantised_real_features(tables):
+    """Codes from a real quantiser (smooth 17-D walk, long runs like motion at 120 fps)."""
+    rng = np.random.default_rng(43)
+    walk = np.cumsum(rng.normal(size=(6000, 17)), axis=0) * 0.05
+    q = Quantizer.fit(walk, 6)
+    diff, full = DiffTable.from_ratios(q.ratios), q.table()
+    for _ in range(60):
+        s1, s2 = rng.integers(0, 5800, 2)
+        a = q.encode(walk[s1:s1 + int(rng.integers(40, 200))])
+        b = q.encode(walk[s2:s2 + int(rng.integers(40, 200))])
+        assert range_lower_bound(a, b, diff) <= dtw_codes(a, b, full)
+
+
+def test_range_suffix_rest_bounds_the_true_cost_to_go(tables):
+    _, _, diff = tables
+    rng = np.random.default_rng(47)
+    for _ in range(60):
+        a, b = _slow_codes(rng, max_runs=10), _slow_codes(rng, max_runs=10)
+        cost, al, bl = _range_parts(a, b, diff)
+        rest2 = np.empty((len(al), len(bl)))
+        range_cover_suffix(cost, al, np.zeros(len(al)), np.inf, 1.0, rest2, *_work_ranges(len(bl) + 1))
+        truth = _cost_to_go_rows(cost, al, bl)
+        assert np.all(rest2 <= truth), (a, b)
+        # and never below the envelope suffix it replaces
+        env = cost.min(axis=1) * al
+        suffix = np.concatenate((np.cumsum(env[::-1])[::-1][1:], [0.0]))
+        assert np.all(rest2 >= suffix[:, None])
+
+
+def test_range_bound_abandons_only_above_the_limit(tables):
+    _, full, diff = tables
+    rng = np.random.default_rng(49)
+    for _ in range(200):
+        a, b = _slow_codes(rng), _slow_codes(rng)
+        cost, al, bl = _range_parts(a, b, diff)
+        n = max(len(al), len(bl)) + 1
+        norm = float(len(a) + len(b))
+        exact = dtw_codes(a, b, full)
+        env = cost.min(axis=1) * al
+        before = np.concatenate(([0.0], np.cumsum(env)[:-1]))
+        rest = np.concatenate((np.cumsum(env[::-1])[::-1][1:], [0.0]))
+        rest2 = np.empty((len(al), len(bl)))
+        for limit in (exact, exact * 0.9, exact * 1.1):
+            fwd = range_cover_raw(cost, al, False, rest, limit, norm, *_work_ranges(n))
+            bwd = range_cover_suffix(cost, al, before, limit, norm, rest2, *_work_ranges(n))
+            for r in (fwd, bwd):
+                if limit >= exact:  # the exact DTW is within the limit: never abandoned, never above it
+                    assert r != np.inf and r / norm <= limit
+
+
+def test_search_with_and_without_the_range_bound_equals_brute_force(tables):
+    _, full, diff = tables
+    rng = np.random.default_rng(51)
+    lib = [_slow_codes(rng, max_runs=40, max_run=12) for _ in range(80)]
+    lib[9] = lib[2].copy()  # a tie
+    qs = [_slow_codes(rng, max_runs=40, max_run=12) for _ in range(12)] + [lib[2], lib[40][3:-3]]
+    rejected = 0
+    for k in (1, 3):
+        idx, dist = brute_force(qs, lib, full, k=k)
+        for rb in (True, False):
+            res = FastSearcher(lib, diff, range_bound=rb).search(qs, k=k, parallel=False)
+            assert np.array_equal(res.indices, idx) and np.array_equal(res.distances, dist)
+            if rb:
+                rejected += res.stats.range_rejected
+            else:
+                assert res.stats.range_rejected == 0
+        batch = FastSearcher(lib, diff).search(qs, k=k, parallel=True)
+        assert np.array_equal(batch.indices, idx) and np.array_equal(batch.distances, dist)
+    assert rejected > 0  # the bound did work here (the equalities above are not vacuous)
+
+
+def test_range_bound_and_search_on_real_cmu_clips(cmu_dir):
+    """Real motion codes (shared CMU clips, 30 fps): the bound stays below the seed's DTW
+    for every pair, and the search with it returns the seed's neighbours and distances."""
+    from retrieval.dataset import load_dataset, read_labels
+    from retrieval.evaluation import stratified_subset
+    from retrieval.matchers import stack_frames
+
+    clips = stratified_subset(load_dataset(cmu_dir, fps=30, progress=False, rows=read_labels(cmu_dir)), 24, seed=2)
+    q = Quantizer.fit(stack_frames([c.features for c in clips[6:]]), 6)
+    diff, full = DiffTable.from_ratios(q.ratios), q.table()
+    codes = [q.encode(c.features)[:400] for c in clips]
+    queries, lib = codes[:6], codes[6:]
+    for a in queries:
+        for b in lib:
+            assert range_lower_bound(a, b, diff) <= dtw_codes(a, b, full)
+    idx, dist = brute_force(queries, lib, full, k=2)
+    res = FastSearcher(lib, diff).search(queries, k=2, parallel=False)
+    assert np.array_equal(res.indices, idx) and np.array_equal(res.distances, dist)
 
 
 def test_run_length_encoding_round_trips():
