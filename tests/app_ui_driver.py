@@ -4,6 +4,14 @@ Run by tests/test_app_ui.py as ``python tests/app_ui_driver.py SCENARIO DB OUT``
 Kivy app per process (Kivy keeps global window state), offscreen SDL. Each scenario is a
 list of steps; between steps a few frames are drawn so layouts and canvases settle.
 Results go to OUT/result.json; screenshots to OUT/*.png.
+
+Deterministic under load: a fixed number of frames between steps is not enough on a busy
+machine. A ModalView (the arc chooser fading out for 0.1 s, a message) swallows every
+touch while it is on the window, and a screen rebuilt by the last step is laid out a frame
+or more later. So every touch first waits (bounded by ``STEP_DEADLINE_S``) until its target
+can really be touched (see :func:`why_untouchable`), and a :func:`touching` step also
+waits for its effect on the story, retrying the touch (``retries``, each one recorded in
+``result["retries"]``) only when it provably had none.
 """
 from __future__ import annotations
 
@@ -11,7 +19,9 @@ import json
 import os
 import sys
 import time
+import weakref
 from pathlib import Path
+from typing import Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
@@ -31,11 +41,70 @@ OUT.mkdir(parents=True, exist_ok=True)
 result: dict = {"steps": []}
 
 
+#: The longest a step may wait for its target to become touchable or for its effect.
+STEP_DEADLINE_S = 20.0
+
+
+class NotReady(Exception):
+    """The step's touch target cannot be touched yet: the step runs again a frame later."""
+
+
 def centre(widget) -> tuple[float, float]:
     return widget.to_window(*widget.center)
 
 
+_seen_at: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # widget -> (window rect, flip count)
+
+
+def why_untouchable(widget) -> str | None:
+    """Why a finger on ``widget``'s centre would not reach it now (None: it would).
+
+    The widget must be on the window, under the topmost window child (a ModalView on top
+    takes every touch, also while it fades out), in the current screen, inside the window
+    and every enclosing ScrollView, and laid out: the same non-empty window rectangle in
+    two different drawn frames (a rebuilt screen's widgets move when the layout runs).
+    """
+    from kivy.uix.modalview import ModalView
+    from kivy.uix.screenmanager import Screen
+    from kivy.uix.scrollview import ScrollView
+
+    if widget.get_root_window() is not Window:
+        return f"{type(widget).__name__} is not on the window"
+    top, node = widget, widget
+    while node.parent is not None and node.parent is not Window:
+        node = node.parent
+        if isinstance(node, Screen) and node.manager is not None and node.manager.current != node.name:
+            return f"screen {node.name!r} is not the current one ({node.manager.current!r})"
+        if isinstance(node, ScrollView) and not node.collide_point(*node.to_parent(*node.to_widget(*centre(widget)))):
+            return "its centre is scrolled out of view"
+        top = node
+    if Window.children and Window.children[0] is not top:
+        return f"a {type(Window.children[0]).__name__} is on top of it"
+    if isinstance(top, ModalView) and (top._anim_alpha < 1 or not top._is_open):
+        return "its ModalView is still opening or closing"
+    x, y = widget.to_window(*widget.pos)
+    rect = (round(x, 1), round(y, 1), round(widget.width, 1), round(widget.height, 1))
+    cx, cy = centre(widget)
+    if widget.width < 1 or widget.height < 1 or not (0 <= cx < Window.width and 0 <= cy < Window.height):
+        return f"not laid out inside the window yet ({rect})"
+    flips = app_ref[0]._flips
+    seen = _seen_at.get(widget)
+    if seen is None or seen[0] != rect:
+        _seen_at[widget] = (rect, flips)
+        return "its layout may still change"
+    if seen[1] == flips:
+        return "no frame drawn since it was first seen there"
+    return None
+
+
+def ensure_touchable(widget) -> None:
+    why = why_untouchable(widget)
+    if why is not None:
+        raise NotReady(why)
+
+
 def tap(widget) -> None:
+    ensure_touchable(widget)
     x, y = centre(widget)
     touch = UnitTestTouch(x, y)
     touch.touch_down()
@@ -53,8 +122,10 @@ class TimedTouch(UnitTestTouch):
         self.time_update = self.fake_time
 
 
-def stroke(points_px: list[tuple[float, float]], dt: float = 0.05) -> None:
-    """A finger stroke through window pixels, with time stamps ``dt`` apart."""
+def stroke(points_px: list[tuple[float, float]], on, dt: float = 0.05) -> None:
+    """A finger stroke through window pixels on the widget ``on``, time stamps ``dt`` apart.
+    Compute ``points_px`` in the same step (they depend on the widget's layout)."""
+    ensure_touchable(on)
     t0 = time.time()
     touch = TimedTouch(*points_px[0])
     touch.time_start = touch.time_update = touch.fake_time = t0
@@ -66,8 +137,37 @@ def stroke(points_px: list[tuple[float, float]], dt: float = 0.05) -> None:
 
 
 def drag(widget, dy: float, steps: int = 8) -> None:
+    ensure_touchable(widget)
     x, y = centre(widget)
-    stroke([(x, y + dy * i / steps) for i in range(steps + 1)])
+    stroke([(x, y + dy * i / steps) for i in range(steps + 1)], on=widget)
+
+
+class TouchStep:
+    """A step that touches the app and then waits for the effect on the model.
+
+    ``effect`` is called just before the first touch and returns the test of success
+    (so it can remember the state before). Touch handling in Kivy is synchronous, so a
+    touch whose effect is still missing once a few frames are drawn had none: only then is
+    it repeated, at most ``retries`` times.
+    """
+
+    def __init__(self, act: Callable[[], object], effect: Callable[[], Callable[[], bool]], retries: int = 2):
+        self.act, self.effect, self.retries = act, effect, retries
+
+
+def touching(act: Callable[[], object], until: Callable[[], bool] | None = None,
+             changes: Callable[[], object] | None = None, retries: int = 2) -> TouchStep:
+    """A :class:`TouchStep` whose effect is ``until()`` becoming true, or the value of
+    ``changes()`` differing from its value before the touch."""
+    if (until is None) == (changes is None):
+        raise ValueError("give exactly one of until= and changes=")
+    if until is not None:
+        return TouchStep(act, lambda: until, retries)
+
+    def arm():
+        before = changes()
+        return lambda: changes() != before
+    return TouchStep(act, arm, retries)
 
 
 def table_px(table, mx: float, my: float) -> tuple[float, float]:
@@ -88,22 +188,29 @@ def editor(app):
 
 # --------------------------------------------------------------------------- scenarios
 def touch_story_steps(app):
-    """Three scenes made by touch alone, then wait to be killed."""
+    """Three scenes made by touch alone, then wait to be killed. Each touch waits for its
+    effect on the story (see :class:`TouchStep`)."""
     home = app.sm.get_screen("home")
-    yield lambda: tap(home.new_tile)
-    yield lambda: tap(home.arc_view.children[0].children[0].children[-1])  # "short" arc (3 scenes)
+    yield touching(lambda: tap(home.new_tile), until=lambda: getattr(home, "arc_view", None) in Window.children)
+    yield touching(lambda: tap(home.arc_view.children[0].children[0].children[-1]),  # "short" arc (3 scenes)
+                   until=lambda: app.editor is not None and app.sm.current == "editor")
+    story = lambda: app.editor.story  # noqa: E731
     for k in range(3):
         def pick_scene(k=k):
             thumbs = list(reversed(editor(app).strip.children))
             tap(thumbs[k])
-        yield pick_scene
-        yield lambda: tap(editor(app).character_buttons[["robot", "animal", "child"][k]])
+        yield touching(pick_scene, until=lambda k=k: app.current_scene_id == story().scenes[k].id)
+        kind = ["robot", "animal", "child"][k]
+        yield touching(lambda kind=kind: tap(editor(app).character_buttons[kind]),
+                       until=lambda k=k, kind=kind: [c.kind for c in story().scenes[k].characters] == [kind])
 
         def sketch(k=k):
             table = editor(app).table
-            stroke([table_px(table, 0.1 + 0.1 * i, 0.2 + 0.1 * k) for i in range(9)])
-        yield sketch
-        yield lambda: tap(editor(app).motion_buttons[["walk", "jump", "dance"][k]])
+            stroke([table_px(table, 0.1 + 0.1 * i, 0.2 + 0.1 * k) for i in range(9)], on=table)
+        yield touching(sketch, until=lambda k=k: len(story().scenes[k].characters[0].path) >= 2)
+        motion = ["walk", "jump", "dance"][k]
+        yield touching(lambda motion=motion: tap(editor(app).motion_buttons[motion]),
+                       until=lambda k=k, motion=motion: story().scenes[k].characters[0].motion.motion_class == motion)
 
     def report():
         story = app.editor.story
@@ -118,11 +225,13 @@ def touch_story_steps(app):
 def editor_steps(app):
     """Sketch, hop arc, scene drag-reorder, undo, motion choice, similar clips, play."""
 
+    chosen = lambda: app.editor.story.scene(app.current_scene_id).character(app.selected_character_id)  # noqa: E731
+
     def sketch():
         table = editor(app).table
         result["selected"] = app.selected_character_id
-        stroke([table_px(table, 0.2 + 0.08 * i, 0.3) for i in range(10)])
-    yield sketch
+        stroke([table_px(table, 0.2 + 0.08 * i, 0.3) for i in range(10)], on=table)
+    yield touching(sketch, changes=lambda: chosen().path)
 
     def after_sketch():
         c = app.editor.story.scenes[0].character(result["selected"])
@@ -132,8 +241,8 @@ def editor_steps(app):
 
     def hop():
         table = editor(app).table
-        stroke([table_px(table, 0.4 + 0.02 * i, 0.3 + 0.1 * (1 - abs(i - 5) / 5)) for i in range(11)])
-    yield hop
+        stroke([table_px(table, 0.4 + 0.02 * i, 0.3 + 0.1 * (1 - abs(i - 5) / 5)) for i in range(11)], on=table)
+    yield touching(hop, changes=lambda: [m.kind for m in chosen().marks])
     yield lambda: result.update(marks_after_hop=[m.kind for m in app.editor.story.scenes[0].character(result["selected"]).marks])
 
     def spin_sketch():  # a path with a small loop in the middle
@@ -141,19 +250,21 @@ def editor_steps(app):
         pts = [(0.2 + 0.02 * i, 0.5) for i in range(11)]  # right to x = 0.4
         pts += [(0.4, 0.53), (0.4, 0.56), (0.37, 0.56), (0.35, 0.56), (0.35, 0.53), (0.35, 0.47)]  # loop back across
         pts += [(0.35 + 0.03 * i, 0.45) for i in range(1, 12)]
-        stroke([table_px(table, x, y) for x, y in pts])
-    yield spin_sketch
+        stroke([table_px(table, x, y) for x, y in pts], on=table)
+    yield touching(spin_sketch, changes=lambda: [m.kind for m in chosen().marks])
     yield lambda: result.update(marks_after_spin=[m.kind for m in app.editor.story.scenes[0].character(result["selected"]).marks])
 
     yield lambda: result.update(order_before=[s.id for s in app.editor.story.scenes])
-    yield lambda: drag(list(reversed(editor(app).strip.children))[0], -260)
+    order = lambda: [s.id for s in app.editor.story.scenes]  # noqa: E731
+    yield touching(lambda: drag(list(reversed(editor(app).strip.children))[0], -260), changes=order)
     yield lambda: result.update(order_after_drag=[s.id for s in app.editor.story.scenes])
-    yield lambda: tap(editor(app).undo_button)
+    yield touching(lambda: tap(editor(app).undo_button), changes=order)
     yield lambda: result.update(order_after_undo=[s.id for s in app.editor.story.scenes])
-    yield lambda: tap(editor(app).redo_button)
+    yield touching(lambda: tap(editor(app).redo_button), changes=order)
     yield lambda: result.update(order_after_redo=[s.id for s in app.editor.story.scenes])
-    yield lambda: tap(list(reversed(editor(app).strip.children))[0])  # select the (moved) first scene
-    yield lambda: tap(editor(app).motion_buttons["kick"])
+    yield touching(lambda: tap(list(reversed(editor(app).strip.children))[0]),  # select the (moved) first scene
+                   until=lambda: app.current_scene_id == app.editor.story.scenes[0].id)
+    yield touching(lambda: tap(editor(app).motion_buttons["kick"]), until=lambda: chosen().motion.motion_class == "kick")
 
 
     def motion():
@@ -166,9 +277,10 @@ def editor_steps(app):
         scene = app.editor.story.scene(app.current_scene_id)
         result["cast_before_remove"] = len(scene.characters)
     yield remove_and_undo
-    yield lambda: tap(editor(app).remove_button)
+    cast = lambda: len(app.editor.story.scene(app.current_scene_id).characters)  # noqa: E731
+    yield touching(lambda: tap(editor(app).remove_button), changes=cast)
     yield lambda: result.update(cast_after_remove=len(app.editor.story.scene(app.current_scene_id).characters))
-    yield lambda: tap(editor(app).undo_button)
+    yield touching(lambda: tap(editor(app).undo_button), changes=cast)
     yield lambda: result.update(cast_after_undo=len(app.editor.story.scene(app.current_scene_id).characters))
     yield lambda: result.update(similar_for=editor(app).selected_character().motion.motion_class)
     yield lambda: editor(app).more_like_this()
@@ -176,7 +288,7 @@ def editor_steps(app):
     yield lambda: shot("more_like_this")
     yield lambda: editor(app).clip_view.dismiss()
     yield lambda: shot("editor_after")
-    yield lambda: tap(editor(app).play_button)
+    yield touching(lambda: tap(editor(app).play_button), until=lambda: app.sm.current == "play")
 
     def on_play():
         result["screen_after_play"] = app.sm.current
@@ -205,11 +317,11 @@ def language_steps(app):
     yield lambda: app.go("home")
     yield lambda: shot(f"home_{app.lang}")
     yield lambda: result.update(home_buttons=button_sizes(app.sm.get_screen("home")))
-    yield lambda: tap(app.sm.get_screen("home").language_button)
+    yield touching(lambda: tap(app.sm.get_screen("home").language_button), changes=lambda: app.lang)
     yield lambda: result.update(lang_after_tap=app.lang, lang_saved=app.store.get_setting("language"),
                                 title_after_tap=app.sm.get_screen("home").title_label.text)
     yield lambda: setattr(app, "editor", None)
-    yield lambda: tap(app.sm.get_screen("home").tiles[0])
+    yield touching(lambda: tap(app.sm.get_screen("home").tiles[0]), until=lambda: app.editor is not None)
     yield lambda: result.update(after_tile=app.sm.current, opened=app.editor.story.id if app.editor else None)
     yield finish
 
@@ -217,15 +329,16 @@ def language_steps(app):
 def teacher_steps(app):
     home = app.sm.get_screen("home")
     yield lambda: result.update(teacher_button=[*centre(app.sm.get_screen("home").teacher_button), app.sm.current])
-    yield lambda: tap(app.sm.get_screen("home").teacher_button)
+    yield touching(lambda: tap(app.sm.get_screen("home").teacher_button), until=lambda: app.sm.current == "pin")
     yield lambda: result.update(after_tap=app.sm.current)
     pin = lambda: app.sm.get_screen("pin")  # noqa: E731
     for key in "2468":
-        yield lambda key=key: tap(pin().keys[key])
-    yield lambda: tap(pin().keys["ok"])
+        yield touching(lambda key=key: tap(pin().keys[key]), changes=lambda: pin().entered)
+    yield touching(lambda: tap(pin().keys["ok"]), until=lambda: app.sm.current == "teacher")
     yield lambda: result.update(after_first_pin=app.sm.current, pin_set=app.store.has_pin())
     yield lambda: shot("teacher")
-    yield lambda: tap(app.sm.get_screen("teacher").calibration_button)
+    yield touching(lambda: tap(app.sm.get_screen("teacher").calibration_button),
+                   until=lambda: app.sm.current == "calibration")
     calib = lambda: app.sm.get_screen("calibration")  # noqa: E731
     state = {"taps": 0, "polls": 0}
 
@@ -237,15 +350,15 @@ def teacher_steps(app):
         if not getattr(calib(), "_busy", False):
             if any(st.error for st in wizard.steps):
                 return None
+            tap(calib().next_button)  # first: it raises NotReady while the button cannot be touched
             state["taps"] += 1
-            tap(calib().next_button)
         return "again"
     yield run_wizard
     yield lambda: result.update(calibration=[[st.key, st.result, st.error] for st in calib().wizard.steps],
                                 calibration_taps=state["taps"])
     yield lambda: app.go("teacher")
     teacher = lambda: app.sm.get_screen("teacher")  # noqa: E731
-    yield lambda: tap(teacher().action_buttons["activity_log"])
+    yield touching(lambda: tap(teacher().action_buttons["activity_log"]), changes=lambda: app.store.activity_logging)
     yield lambda: tap(teacher().action_buttons["export_packages"])
     yield lambda: tap(teacher().action_buttons["export_video"])
 
@@ -257,15 +370,15 @@ def teacher_steps(app):
     yield lambda: result.update(video_status=teacher().status.text)
     yield lambda: tap(teacher().action_buttons["export_log"])
     yield lambda: result.update(export_dir=str(app.export_dir), log_on=app.store.activity_logging)
-    yield lambda: tap(teacher().action_buttons["present_all"])
+    yield touching(lambda: tap(teacher().action_buttons["present_all"]), until=lambda: app.sm.current == "projector")
     yield lambda: result.update(after_present=app.sm.current,
                                 presented_scenes=len(app.editor.story.scenes) if app.editor else 0)
     yield lambda: app.go("teacher")
     yield lambda: app.sm.get_screen("teacher").leave()
     yield lambda: app.go("pin")
     for key in "1111":
-        yield lambda key=key: tap(pin().keys[key])
-    yield lambda: tap(pin().keys["ok"])
+        yield touching(lambda key=key: tap(pin().keys[key]), changes=lambda: pin().entered)
+    yield touching(lambda: tap(pin().keys["ok"]), changes=lambda: pin().message.text)
     yield lambda: result.update(after_wrong_pin=app.sm.current, wrong_message=pin().message.text)
     yield lambda: shot("pin")
     yield finish
@@ -380,9 +493,12 @@ def import_steps(app):
     picker = lambda: teacher().import_picker  # noqa: E731
     yield lambda: result.update(tiles=sorted(Path(k).name for k in picker().tiles), before=db_state())
     yield lambda: shot("import_picker")
-    yield lambda: tap(next(t for k, t in picker().tiles.items() if Path(k).name == "broken.zip"))
+    picked = lambda: (picker().message, getattr(picker(), "ok", None))  # noqa: E731
+    yield touching(lambda: tap(next(t for k, t in picker().tiles.items() if Path(k).name == "broken.zip")),
+                   changes=picked)
     yield lambda: result.update(after_bad=db_state(), bad_message=picker().message, bad_ok=picker().ok)
-    yield lambda: tap(next(t for k, t in picker().tiles.items() if Path(k).name == "good.zip"))
+    yield touching(lambda: tap(next(t for k, t in picker().tiles.items() if Path(k).name == "good.zip")),
+                   changes=picked)
     yield lambda: result.update(after_good=db_state(), good_message=picker().message, good_ok=picker().ok,
                                 imported_titles=[s.title for s in app.store.list_stories()])
     yield finish
@@ -397,11 +513,6 @@ SCENARIOS = {"touch_story": touch_story_steps, "editor": editor_steps, "language
              "teacher": teacher_steps, "play3d": play3d_steps, "projector3d": projector3d_steps,
              "thumbs": thumbs_steps, "import": import_steps}
 app_ref: list = []
-
-
-def _prepend(item, iterator):
-    yield item
-    yield from iterator
 
 
 class DriverApp(StoryBeamApp):
@@ -430,28 +541,72 @@ class DriverApp(StoryBeamApp):
         if self._flips < getattr(self, "_wait_for_flips", 0):
             Clock.schedule_once(self._next, 0.02)  # the last step's new widgets are not laid out yet
             return
-        try:
-            step = next(self._steps)
-        except StopIteration:
-            return
-        if step == "hang":
-            return  # wait to be killed
-        try:
-            if step() == "again":  # the step waits for something: run it again shortly
-                self._steps = _prepend(step, self._steps)
-                Clock.schedule_once(self._next, 0.1)
+        if getattr(self, "_current", None) is None:
+            try:
+                step = next(self._steps)
+            except StopIteration:
                 return
-            result["steps"].append("ok")
-        except Exception as exc:  # record and stop: the test reports which step failed
+            if step == "hang":
+                return  # wait to be killed
+            self._current = step
+            self._step_deadline = time.monotonic() + STEP_DEADLINE_S  # for a TouchStep's effect
+            self._touch = None  # TouchStep progress: check, tries, flips at the last touch
+            self._not_ready_since = None
+        step = self._current
+        try:
+            status = self._run_touch_step(step) if isinstance(step, TouchStep) else step()
+        except NotReady as exc:
+            now = time.monotonic()
+            self._not_ready_since = self._not_ready_since or now
+            if now - self._not_ready_since > STEP_DEADLINE_S:
+                self._fail(f"its target stayed untouchable for {STEP_DEADLINE_S:.0f} s: {exc}")
+                return
+            status = "again"
+            Window.canvas.ask_update()  # frames must come: touchable means laid out in two frames
+        except Exception:  # record and stop: the test reports which step failed
             import traceback
-            result["error"] = f"step {len(result['steps'])}: {traceback.format_exc()}"
-            (OUT / "result.json").write_text(json.dumps(result))
-            self.stop()
+            self._fail(traceback.format_exc())
             return
+        else:
+            self._not_ready_since = None
+            if isinstance(step, TouchStep) and status == "again" and time.monotonic() > self._step_deadline:
+                self._fail(f"no effect of the touch after {STEP_DEADLINE_S:.0f} s")
+                return
+        if status == "again":  # the step waits for something: run it again shortly
+            Clock.schedule_once(self._next, 0.05)
+            return
+        self._current = None
+        result["steps"].append("ok")
         self._wait_for_flips = self._flips + 2
         Window.canvas.ask_update()  # make sure frames are drawn even if the step changed nothing
         Clock.schedule_once(lambda dt: Window.canvas.ask_update(), 0.01)
         Clock.schedule_once(self._next, 0.02)
+
+    def _run_touch_step(self, step: TouchStep) -> str | None:
+        """Touch (when the target is touchable), then wait for the effect; touch again
+        only when the last touch is over, frames were drawn, and nothing happened."""
+        Window.canvas.ask_update()  # keep frames coming while the step waits
+        state = self._touch
+        if state is None:
+            state = self._touch = {"check": step.effect(), "tries": 0, "flips": None}
+        elif state["flips"] is not None:  # touched: wait for the effect
+            if state["check"]():
+                return None
+            if self._flips < state["flips"] + 3:
+                return "again"
+            if state["tries"] > step.retries:
+                raise AssertionError(f"the touch had no effect, {state['tries']} times")
+            result.setdefault("retries", []).append(f"step {len(result['steps'])}: no effect, touched again")
+            state["flips"] = None
+        step.act()  # raises NotReady until the target is touchable
+        state["tries"] += 1
+        state["flips"] = self._flips
+        return None if state["check"]() else "again"
+
+    def _fail(self, why: str) -> None:
+        result["error"] = f"step {len(result['steps'])}: {why}"
+        (OUT / "result.json").write_text(json.dumps(result))
+        self.stop()
 
 
 if __name__ == "__main__":
