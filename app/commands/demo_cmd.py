@@ -16,7 +16,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seconds", type=float, default=10.0, help="animation length (default 10)")
     p.add_argument("--fps", type=float, default=30.0)
     p.add_argument("--size", default="640x480", help="frame size WxH (default 640x480)")
-    p.add_argument("--view", choices=("projector", "camera", "overhead", "all"), default="camera")
+    p.add_argument("--view", choices=("projector", "camera", "overhead", "all"), default="all",
+                   help="which view the MP4 shows (default all: camera | projector | overhead side by side)")
     p.add_argument("--character", default="robot", help="robot, cat or kid")
     p.add_argument("--max-frames", type=int, help="stop after this many frames (quick checks)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
