@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import os
 from pathlib import Path
+
+from app.commands.output import write_json_report
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -58,9 +59,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"landing error (clean, median): {result['landing_error_mm_median']:.2f} mm; "
           f"detect+pose {result['detect_pose_ms_median']:.1f} ms; render {result['render_ms_median']:.1f} ms (medians)")
     if args.json_out:
-        args.json_out.parent.mkdir(parents=True, exist_ok=True)
-        args.json_out.write_text(json.dumps(result, indent=2))
-        print(f"wrote {args.json_out}")
+        write_json_report(args.json_out, result, indent=2)
     if examples:
         _write_examples(args.examples, examples)
     return 0

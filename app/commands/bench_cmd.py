@@ -9,8 +9,8 @@ CMU-sized derived library, and memory. Other targets join by adding an entry to
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
+
+from app.commands.output import write_json_report
 
 
 def _add_retrieval(sub) -> None:
@@ -35,10 +35,7 @@ def _run_retrieval(args) -> int:
                               plot=args.plot, progress=not args.quiet)
     print(format_report(out))
     if args.json_out:
-        path = Path(args.json_out)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(out, indent=1))
-        print(f"wrote {path}")
+        write_json_report(args.json_out, out)
     return 0
 
 

@@ -7,10 +7,9 @@ study over the number of kept PCA components, with ``--plots`` as PNG figures.
 from __future__ import annotations
 
 import argparse
-import json
 import time
-from pathlib import Path
 
+from app.commands.output import write_json_report
 from retrieval.errors import StoryBeamError
 
 
@@ -125,8 +124,5 @@ def run(args) -> int:
             print("plots: " + ", ".join(out["plots"]))
     out["total_run_seconds"] = time.perf_counter() - started
     if args.json_out:
-        path = Path(args.json_out)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(out, indent=1))
-        print(f"wrote {path}")
+        write_json_report(args.json_out, out)
     return 0

@@ -6,9 +6,9 @@ index.json); by default the bundled library in assets/motions.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
+from app.commands.output import write_json_report
 from retrieval.errors import StoryBeamError
 
 DEFAULT_LIBRARY = Path(__file__).resolve().parents[2] / "assets" / "motions"
@@ -52,7 +52,5 @@ def run(args) -> int:
     for i, m in enumerate(matches, 1):
         print(f"{i:>4}  {m.trial:<16} {m.label:<10} {m.distance:.5f}")
     if args.json_out:
-        path = Path(args.json_out)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps({"query": str(query_path), "results": [m.as_dict() for m in matches]}, indent=1))
+        write_json_report(args.json_out, {"query": str(query_path), "results": [m.as_dict() for m in matches]})
     return 0
