@@ -66,7 +66,11 @@ def test_demo_command_tiny_run_writes_video_and_report(tmp_path):
     reader = imageio.get_reader(str(tmp_path / "demo.mp4"))
     frames = [f for f in reader]  # (list(reader) asks len(), which is inf for ffmpeg)
     reader.close()
-    assert len(frames) == 6 and frames[0].shape == (480, 640, 3)
+    # default view: camera | projector | overhead, 640x480 each, side by side
+    assert len(frames) == 6 and frames[0].shape == (480, 3 * 640, 3)
+    projector = frames[0][:, 640:1280].astype(float)
+    assert (projector.max(axis=2) < 24).mean() > 0.8, "projector panel should be mostly black (no light)"
+    assert projector.max() > 100, "projector panel should show the character"
     assert frames[-1].std() > 10  # a picture, not a blank frame
 
 
