@@ -118,6 +118,14 @@ def _read_json(path: str | Path) -> dict:
     return data
 
 
+def _save_json(path: str | Path, data: dict) -> Path:
+    """Write a calibration dict as JSON (making its folder); returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=2))
+    return path
+
+
 @dataclass
 class CameraCalibration:
     """Pinhole + distortion model of the rig camera."""
@@ -136,10 +144,7 @@ class CameraCalibration:
                 "per_view_errors": self.per_view_errors, "rejected_views": self.rejected_views}
 
     def save(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=2))
-        return path
+        return _save_json(path, self.to_dict())
 
     @classmethod
     def from_dict(cls, data: dict, path: str | Path | None = None) -> "CameraCalibration":
@@ -187,10 +192,7 @@ class ProjectorCalibration:
                 "per_view_errors": self.per_view_errors, "rejected_views": self.rejected_views}
 
     def save(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_dict(), indent=2))
-        return path
+        return _save_json(path, self.to_dict())
 
     @classmethod
     def from_dict(cls, data: dict, path: str | Path | None = None) -> "ProjectorCalibration":

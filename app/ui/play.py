@@ -116,8 +116,8 @@ class _Player:
             self.pause()
 
 
-class PlayScreen(Screen):
-    """Preview with play/pause, a scrubber and scene / whole-story choice."""
+class _PlayerScreen(Screen):
+    """A screen that rebuilds itself on entry and pauses its player on leaving."""
 
     def on_pre_enter(self, *args):
         self.refresh()
@@ -125,6 +125,14 @@ class PlayScreen(Screen):
     def on_leave(self, *args):
         if getattr(self, "player", None):
             self.player.pause()
+
+    def refresh(self) -> None:
+        raise NotImplementedError
+
+
+class PlayScreen(_PlayerScreen):
+    """Preview with play/pause, a scrubber and scene / whole-story choice."""
+
 
     def refresh(self) -> None:
         app = App.get_running_app()
@@ -181,7 +189,7 @@ class PlayScreen(Screen):
             self.play_button.icon, self.play_button.text = "play", app.t("play")
 
 
-class ProjectorScreen(Screen):
+class ProjectorScreen(_PlayerScreen):
     """Full-screen projector output: the scene's 3-D characters from the projector's
     viewpoint through the tracked rig (black = no light), the tracking state small in a
     corner. *Preview* shows the camera view instead (the light on the table). Without a
@@ -189,12 +197,6 @@ class ProjectorScreen(Screen):
 
     STATE_COLOURS = {"tracking": (0.3, 0.8, 0.3, 1), "holding": (0.95, 0.7, 0.2, 1), "lost": (0.9, 0.3, 0.3, 1)}
 
-    def on_pre_enter(self, *args):
-        self.refresh()
-
-    def on_leave(self, *args):
-        if getattr(self, "player", None):
-            self.player.pause()
 
     def refresh(self) -> None:
         app = App.get_running_app()
