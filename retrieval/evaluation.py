@@ -78,8 +78,9 @@ def make_matcher(name: str, dims: int = 6, band: int | None = None, forbes_clust
     raise EvaluationError(f"unknown method {name!r} (choose from {', '.join(METHODS)})")
 
 
-def warm_up() -> None:
-    """Compile/load every DTW kernel once so no method's timing pays for compilation."""
+def warm_up(methods: Sequence[str] = METHODS) -> None:
+    """Compile/load the DTW kernels ``methods`` use, once, so no method's timing pays for
+    compilation."""
     t = full_table(np.array([0.6, 0.4]))
     c = np.array([0, 1, 2], dtype=np.int32)
     dtw_codes(c, c, t)
@@ -89,9 +90,10 @@ def warm_up() -> None:
     dtw_codes(c, c, split)
     x = np.zeros((3, 2))
     dtw_features(x, x)
-    from .fast_search import warm_up as warm_up_fast
+    if "quantized-fast" in methods:
+        from .fast_search import warm_up as warm_up_fast
 
-    warm_up_fast()
+        warm_up_fast()
 
 
 @dataclass
@@ -162,7 +164,7 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
             raise EvaluationError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
     labels = [c.label for c in clips]
     parts = stratified_folds(labels, folds, seed)
-    warm_up()
+    warm_up(methods)
     results = {m: MethodResult(m) for m in methods}
     bar = tqdm(total=len(parts), desc="evaluating", unit="fold", disable=not progress)
     for f, query_idx in enumerate(parts):
