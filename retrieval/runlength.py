@@ -217,13 +217,24 @@ if HAVE_NUMBA:
         row_prev[0] = 0.0  # virtual D[-1, -1]
         for j in range(1, ny + 1):
             row_prev[j] = inf
+        for j in range(ny + 1):
+            row_next[j] = inf
         ilo = 0  # live index range of row_prev (index = column + 1); outside it all inf
         near = limit * norm * (1.0 - 1e-9)  # the exact division test runs only near the limit
         ihi = 0
+        # Only the stretch of a row that the blocks wrote can hold finite values: resetting
+        # just that stretch (not all ny + 1 entries) keeps a row-run's cost proportional to
+        # the corridor's width, not to the reference's length.
+        dirty_lo = 0  # stretch of row_next written two row-runs ago (row_prev's initial corner)
+        dirty_hi = -1
+        prev_lo = 0  # stretch of row_prev that holds values
+        prev_hi = 0
         for p in range(kx):
             h = a_len[p]
-            for j in range(ny + 1):
+            for j in range(dirty_lo, dirty_hi + 1):
                 row_next[j] = inf
+            wlo = -1
+            whi = -1
             for s in range(h + 1):
                 left[s] = inf
             # skip the blocks whose top lies wholly left of the live range: their inputs
@@ -244,6 +255,9 @@ if HAVE_NUMBA:
                 c = diff_cost(a_val[p], b_val[q], F, absdiff, shift, mask)
                 _block(row_prev[j0:j0 + w + 1], left, h, w, c,
                        row_next[j0:j0 + w + 1], right, buf_a, buf_b, dq)
+                if wlo < 0:
+                    wlo = j0 + 1
+                whi = j0 + w
                 # a cell whose value plus the bound of what must follow exceeds the limit
                 # lies on no path worth finishing: mark it dead (PrunedDTW-style corridor)
                 for t in range(1, w + 1):
@@ -277,6 +291,10 @@ if HAVE_NUMBA:
             ihi = nhi
             row_prev, row_next = row_next, row_prev
             row_prev[0] = inf
+            dirty_lo = prev_lo
+            dirty_hi = prev_hi
+            prev_lo = wlo
+            prev_hi = whi
         return row_prev[ny]
 
 
