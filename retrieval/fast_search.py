@@ -42,7 +42,7 @@ from .lower_bounds import distinct_counts
 from .runlength import rle_is_exact, run_length_encode
 
 if HAVE_NUMBA:
-    from .range_bound import range_cover_raw, range_cover_suffix
+    from .range_bound import range_cover_both
     from .runlength import diff_cost, rle_dtw_raw
 
 #: "exact": the seed's distance; "runs": the block-corner run-length approximation.
@@ -410,15 +410,10 @@ if HAVE_NUMBA:
             if lro[c + 1] - lro[c] > maxruns:
                 maxruns = lro[c + 1] - lro[c]
         wide = maxruns if maxruns > nruns else nruns
-        cost_buf = np.empty(nruns * maxruns if use_range else 1)
         rest2_buf = np.empty(nruns * maxruns)
         before = np.empty(nruns)
-        rest_crun = np.empty(maxruns)
         w_f = np.empty(wide)
         w_g = np.empty(wide)
-        w_min = np.empty(wide)
-        w_sg = np.empty(wide)
-        w_acc = np.empty(wide)
         # Exact mode with exact arithmetic: the block-corner DTW of a few best-bound
         # candidates is an upper bound of their exact distance, so its k-th smallest value
         # bounds the k-th best distance from above before any exact DTW has run.
@@ -456,35 +451,16 @@ if HAVE_NUMBA:
             for p in range(nruns - 1, -1, -1):
                 rest_run[p] = acc * safety
                 acc += rm[qrd[r0 + p]] * qrl[r0 + p]
-            acc = 0.0
-            j = ny - 1
-            for p in range(lro[c + 1] - lro[c] - 1, -1, -1):
-                per = cmin[lrd[lro[c] + p]]
-                for s in range(lrl[lro[c] + p]):
-                    rest_col[j] = acc * safety
-                    acc += per
-                    j -= 1
             kyc = lro[c + 1] - lro[c]
             rest2 = rest2_buf[:nruns * kyc].reshape((nruns, kyc))
             if use_range:
-                # order-aware bound and "cost still to come" (retrieval.range_bound)
-                C = cost_buf[:nruns * kyc].reshape((nruns, kyc))
-                for p in range(nruns):
-                    Rp = R[qrd[r0 + p]]
-                    for q in range(kyc):
-                        C[p, q] = np.float64(Rp[lrv[lro[c] + q]])
+                # order-aware bounds and "cost still to come" (retrieval.range_bound)
                 acc = 0.0
                 for p in range(nruns):
                     before[p] = acc
                     acc += rm[qrd[r0 + p]] * qrl[r0 + p]
-                lb_raw = range_cover_suffix(C, qrl[r0:r1], before, thr, norm, rest2, w_f, w_g, w_min, w_sg, w_acc)
-                if lb_raw != inf and not lb_raw / norm > thr and thr < inf:
-                    j = -1
-                    for q in range(kyc):
-                        j += lrl[lro[c] + q]
-                        rest_crun[q] = rest_col[j]
-                    lb_raw = range_cover_raw(C, lrl[lro[c]:lro[c + 1]], True, rest_crun, thr, norm,
-                                             w_f, w_g, w_min, w_sg, w_acc)
+                lb_raw = range_cover_both(R, qrd[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
+                                          before, thr, norm, rest2, w_f, w_g)
                 if lb_raw == inf or lb_raw / norm > thr:
                     abandoned += 1
                     range_rejected += 1
@@ -493,6 +469,15 @@ if HAVE_NUMBA:
                 for p in range(nruns):
                     for q in range(kyc):
                         rest2[p, q] = rest_run[p]
+            # the envelope of the columns still to come, per frame (only survivors need it)
+            acc = 0.0
+            j = ny - 1
+            for p in range(lro[c + 1] - lro[c] - 1, -1, -1):
+                per = cmin[lrd[lro[c] + p]]
+                for s in range(lrl[lro[c] + p]):
+                    rest_col[j] = acc * safety
+                    acc += per
+                    j -= 1
             if use_rle == 2 and band < 0:
                 raw = _runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
                                     F, absdiff, shift, mask, rest_run, thr, norm, row_prev, row_next)

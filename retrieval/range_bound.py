@@ -27,10 +27,24 @@ With ``rle_is_exact`` every term is an exact float64 (a float32 cost times a sma
 integer, sums far below 2^53 units), so the inequality holds bit for bit and comparing
 ``bound / (len(a) + len(b))`` with the k-th best distance is exact.
 
-**Algorithm.** ``f_p[x]`` = the minimum for runs 0..p with run p's range ending at x;
-``g[e] = min(f_{p−1}[e], f_{p−1}[e−1])`` and ``f_p[x] = min_{e<=x} g[e] + h_p·min c[p, e..x]``.
-A stack of groups of e with equal range minimum (increasing bottom to top) with running
-minima gives every ``f_p[x]`` in amortised O(1), so the bound costs O(P·Q).
+**Algorithm.** The definition lets a range grow for free (a wider range can only lower its
+minimum), so ``h_p·min_{e<=y<=x} c[p, y]`` is just ``h_p·c[p, y_p]`` at the range's
+cheapest run ``y_p``, and the constraints chain those runs monotonically: the bound is
+
+    min over y_0 <= y_1 <= ... <= y_{P−1} of Σ_p h_p · c[p, y_p]
+
+(every query run picks one candidate run, never going back). Proof of the equality: a
+range sequence gives such a monotone choice (``y_p`` in ``[e_p, x_p]``, ``y_{p+1} >=
+e_{p+1} >= x_p >= y_p``) of the same cost; conversely a monotone choice is a range sequence
+(``e_p = y_{p−1}``, ``x_p = y_p``, the last stretched to ``Q−1``) whose cost is at most the
+choice's. So ``f_p[x]`` (the minimum for runs 0..p with ``y_p <= x``) obeys
+
+    f_p[x] = min(f_p[x − 1], h_p·c[p, x] + f_{p−1}[x])
+
+— one multiply-add and one minimum per (run, run) cell, the same arithmetic as the range
+form (the tests check it against the definition, :func:`range_cover_numpy`). The columns'
+bound is the same DP with the roles swapped, and :func:`range_cover_both` computes both in
+one backward sweep over the grid, reading the costs straight from the query's table rows.
 
 **Early abandoning.** ``min_x f_p[x]`` bounds the cost of the rows of runs 0..p, and
 ``rest[p]`` (the envelope of the rows after run p) that of the rest, so when their sum
@@ -62,132 +76,132 @@ def range_cover_numpy(cost: np.ndarray, heights: np.ndarray) -> float:
     return float(f[-1])
 
 
+def monotone_cover_numpy(cost: np.ndarray, heights: np.ndarray) -> float:
+    """The raw row range-cover bound by the O(P·Q) monotone-choice DP (module docstring);
+    equal to :func:`range_cover_numpy`."""
+    cost = np.asarray(cost, dtype=np.float64)
+    h = np.asarray(heights, dtype=np.float64)
+    f = np.minimum.accumulate(h[0] * cost[0])
+    for p in range(1, cost.shape[0]):
+        f = np.minimum.accumulate(h[p] * cost[p] + f)
+    return float(f[-1])
+
+
 def range_lower_bound(a: np.ndarray, b: np.ndarray, table: DiffTable) -> float:
     """Normalised max(row, column) range-cover bound of two code sequences (numpy):
     <= their normalised DTW (module docstring)."""
     av, al = run_length_encode(np.asarray(a))
     bv, bl = run_length_encode(np.asarray(b))
     cost = table.lookup(av[:, None], bv[None, :])
-    return max(range_cover_numpy(cost, al), range_cover_numpy(cost.T, bl)) / (len(a) + len(b))
+    return max(monotone_cover_numpy(cost, al), monotone_cover_numpy(cost.T, bl)) / (len(a) + len(b))
 
 
 if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
-    def range_cover_raw(C, heights, transpose, rest, limit, norm, f, g, st_min, st_g, st_acc):  # pragma: no cover
+    def range_cover_raw(C, heights, transpose, rest, limit, norm, f):  # pragma: no cover
         """Raw range-cover bound of the block costs ``C`` (rows = query runs; with
         ``transpose`` the roles swap: rows are ``C``'s columns), or inf as soon as
-        ``(min_x f_p[x] + rest[p]) / norm > limit``. Work arrays: length >= runs of the
-        covering side."""
+        ``(min_x f_p[x] + rest[p]) / norm > limit``. Work array ``f``: length >= runs of the
+        covered side."""
         inf = np.inf
         if transpose:
             kx, ky = C.shape[1], C.shape[0]
         else:
             kx, ky = C.shape[0], C.shape[1]
         near = limit * norm * (1.0 - 1e-9)  # the exact division test runs only near the limit
-        h = np.float64(heights[0])
-        m = inf
-        mn = inf
         for x in range(ky):
-            cv = C[x, 0] if transpose else C[0, x]
-            if cv < m:
-                m = cv
-            f[x] = h * m
-            if f[x] < mn:
-                mn = f[x]
-        v = mn + rest[0]
-        if v > near and v / norm > limit:
-            return inf
-        for p in range(1, kx):
+            f[x] = 0.0
+        for p in range(kx):
             h = np.float64(heights[p])
-            g[0] = f[0]
-            for x in range(1, ky):
-                g[x] = f[x] if f[x] < f[x - 1] else f[x - 1]
-            top = 0
-            mn = inf
+            run = inf
             for x in range(ky):
                 cv = C[x, p] if transpose else C[p, x]
-                bg = g[x]
-                while top > 0 and st_min[top - 1] >= cv:
-                    if st_g[top - 1] < bg:
-                        bg = st_g[top - 1]
-                    top -= 1
-                st_min[top] = cv
-                st_g[top] = bg
-                val = bg + h * cv
-                if top > 0 and st_acc[top - 1] < val:
-                    val = st_acc[top - 1]
-                st_acc[top] = val
-                top += 1
+                val = h * cv + f[x]
+                if run < val:
+                    val = run
                 f[x] = val
-                if val < mn:
-                    mn = val
-            v = mn + rest[p]
+                run = val
+            v = run + rest[p]  # f_p is non-increasing: its minimum is its last entry
             if v > near and v / norm > limit:
                 return inf
         return f[ky - 1]
 
     @numba.njit(cache=True, nogil=True)
-    def range_cover_suffix(C, heights, before, limit, norm, rest2, B, Bn, st_min, st_g, st_acc):  # pragma: no cover
+    def range_cover_suffix(C, heights, before, limit, norm, rest2, B):  # pragma: no cover
         """The row range-cover bound computed backwards, which also yields an order-aware
         "cost still to come" for the exact DP's corridor.
 
-        ``B_p[e]`` = the minimum over range sequences of runs p..P−1 with ``e_p = e`` (and
-        ``x_{P−1} = Q−1``) of Σ h·min c. ``rest2[p, x] = min_{e >= x} B_{p+1}[e]`` (0 for the
-        last run) bounds the cost of the rows after run p of any path that is in candidate
-        run x at the end of run p: run p's range ends at ``x_p >= x`` and run p+1's starts
-        at ``x_p`` or ``x_p + 1``. It is never below the envelope suffix (a minimum over a
-        subset of columns). Returns ``B_0[0]`` (the bound; equal to the forward
-        :func:`range_cover_raw`), or inf as soon as ``(min_e B_p[e] + before[p]) / norm >
-        limit`` where ``before[p]`` bounds the rows before run p. ``rest2``: (P, Q) output;
-        work arrays of length >= Q."""
+        ``B_p[e]`` = the minimum over monotone choices for runs p..P−1 with ``y_p >= e`` of
+        Σ h·c (= over range sequences with ``e_p = e``): ``B_p[e] = min(B_p[e + 1], h_p·c[p,
+        e] + B_{p+1}[e])``, non-decreasing in e. ``rest2[p, x] = B_{p+1}[x]`` (0 for the last
+        run) bounds the cost of the rows after run p of any path that is in candidate run x
+        at the end of run p (run p+1's cells all lie in runs >= x). It is never below the
+        envelope suffix (a minimum over a subset of columns). Returns ``B_0[0]`` (the bound;
+        equal to the forward :func:`range_cover_raw`), or inf as soon as ``(B_p[0] +
+        before[p]) / norm > limit`` where ``before[p]`` bounds the rows before run p.
+        ``rest2``: (P, Q) output; work array ``B`` of length >= Q."""
         inf = np.inf
         kx, ky = C.shape[0], C.shape[1]
         near = limit * norm * (1.0 - 1e-9)
-        for x in range(ky):
-            rest2[kx - 1, x] = 0.0
-        h = np.float64(heights[kx - 1])
-        m = inf
-        mn = inf
-        for e in range(ky - 1, -1, -1):
-            cv = C[kx - 1, e]
-            if cv < m:
-                m = cv
-            B[e] = h * m
-            if B[e] < mn:
-                mn = B[e]
-        v = mn + before[kx - 1]
-        if v > near and v / norm > limit:
-            return inf
-        for p in range(kx - 2, -1, -1):
-            # rest2[p, x] = suffix minimum of B_{p+1}; Bn[x] = min(B_{p+1}[x], B_{p+1}[x+1])
-            m = inf
-            for x in range(ky - 1, -1, -1):
-                if B[x] < m:
-                    m = B[x]
-                rest2[p, x] = m
-                Bn[x] = B[x] if (x == ky - 1 or B[x] < B[x + 1]) else B[x + 1]
+        for e in range(ky):
+            B[e] = 0.0
+        for p in range(kx - 1, -1, -1):
             h = np.float64(heights[p])
-            top = 0
-            mn = inf
+            run = inf
             for e in range(ky - 1, -1, -1):
-                cv = C[p, e]
-                bg = Bn[e]
-                while top > 0 and st_min[top - 1] >= cv:
-                    if st_g[top - 1] < bg:
-                        bg = st_g[top - 1]
-                    top -= 1
-                st_min[top] = cv
-                st_g[top] = bg
-                val = bg + h * cv
-                if top > 0 and st_acc[top - 1] < val:
-                    val = st_acc[top - 1]
-                st_acc[top] = val
-                top += 1
+                old = B[e]
+                rest2[p, e] = old
+                val = h * C[p, e] + old
+                if run < val:
+                    val = run
                 B[e] = val
-                if val < mn:
-                    mn = val
-            v = mn + before[p]
+                run = val
+            v = run + before[p]
             if v > near and v / norm > limit:
                 return inf
         return B[0]
+
+    @numba.njit(cache=True, nogil=True)
+    def range_cover_both(R, q_rows, q_heights, c_codes, c_widths, before, limit, norm, rest2, B, G):  # pragma: no cover
+        """Both range-cover bounds (rows choosing columns, columns choosing rows) in one
+        backward sweep over the (query run × candidate run) grid, the block costs read
+        straight from the query's table rows: ``c[p, e] = R[q_rows[p], c_codes[e]]``.
+        Fills ``rest2`` like :func:`range_cover_suffix` and abandons like it (``before``:
+        a bound of the rows before each run); returns the raw maximum of the two bounds, or
+        inf. Work arrays ``B`` and ``G``: length >= number of candidate runs.
+
+        The column DP, ``G_q[x] = min(G_q[x + 1], w_q·c[x, q] + G_{q+1}[x])``, only needs the
+        cell below and the cell to the right, so it runs in the same row-by-row order."""
+        inf = np.inf
+        kx, ky = q_rows.shape[0], c_codes.shape[0]
+        near = limit * norm * (1.0 - 1e-9)
+        for e in range(ky):
+            B[e] = 0.0
+            G[e] = inf
+        for p in range(kx - 1, -1, -1):
+            h = np.float64(q_heights[p])
+            Rp = R[q_rows[p]]
+            run = inf
+            right = 0.0
+            out = rest2[p]
+            for e in range(ky - 1, -1, -1):
+                cv = np.float64(Rp[c_codes[e]])
+                old = B[e]
+                # still to come after a cell of block (p, e): the rows after run p (B_{p+1}[e])
+                # and the column runs after e, covered by rows of runs >= p (G_{e+1}[p])
+                out[e] = old if old > right else right
+                val = h * cv + old
+                if run < val:
+                    val = run
+                B[e] = val
+                run = val
+                gv = np.float64(c_widths[e]) * cv + right
+                if G[e] < gv:
+                    gv = G[e]
+                G[e] = gv
+                right = gv
+            v = run + before[p]
+            if v > near and v / norm > limit:
+                return inf
+        return B[0] if B[0] > G[0] else G[0]

@@ -14,7 +14,8 @@ from retrieval.errors import StoryBeamError
 from retrieval.fast_search import FastSearcher, PackedCodes, brute_force, brute_force_runs
 from retrieval.lower_bounds import envelope_sums, lb_kim, lower_bound
 from retrieval.quantize import Quantizer, full_table
-from retrieval.range_bound import range_cover_numpy, range_cover_raw, range_cover_suffix, range_lower_bound
+from retrieval.range_bound import (monotone_cover_numpy, range_cover_both, range_cover_numpy, range_cover_raw,
+                                   range_cover_suffix, range_lower_bound)
 from retrieval.runlength import rle_dtw_numpy, rle_dtw_raw, rle_is_exact, run_length_decode, run_length_encode
 
 
@@ -123,7 +124,7 @@ def _range_parts(a, b, diff):
 
 
 def _work_ranges(n: int):
-    return tuple(np.empty(n) for _ in range(5))
+    return (np.empty(n),)
 
 
 def _cost_to_go_rows(cost: np.ndarray, al: np.ndarray, bl: np.ndarray) -> np.ndarray:
@@ -200,6 +201,62 @@ def test_range_suffix_rest_bounds_the_true_cost_to_go(tables):
         env = cost.min(axis=1) * al
         suffix = np.concatenate((np.cumsum(env[::-1])[::-1][1:], [0.0]))
         assert np.all(rest2 >= suffix[:, None])
+
+
+def test_monotone_choice_dp_equals_the_range_cover_definition():
+    """The O(P·Q) monotone-choice DP is the range-cover bound of the definition (O(P·Q²))."""
+    rng = np.random.default_rng(53)
+    for _ in range(400):
+        P, Q = rng.integers(1, 9, 2)
+        cost = rng.integers(0, 6, (P, Q)) * rng.random()
+        h = rng.integers(1, 6, P)
+        assert monotone_cover_numpy(cost, h) == pytest.approx(range_cover_numpy(cost, h), abs=1e-12)
+
+
+def _cost_after_cells(cost: np.ndarray, al: np.ndarray, bl: np.ndarray) -> np.ndarray:
+    """Per block (p, q): the least exact cost of what follows any of its cells on a path
+    to the end (the cell itself excluded), by brute force on the expanded grid."""
+    full = np.repeat(np.repeat(cost, al, axis=0), bl, axis=1)
+    nx, ny = full.shape
+    back = np.full((nx + 1, ny + 1), np.inf)
+    back[nx - 1, ny - 1] = full[nx - 1, ny - 1]
+    for i in range(nx - 1, -1, -1):
+        for j in range(ny - 1, -1, -1):
+            if (i, j) != (nx - 1, ny - 1):
+                back[i, j] = full[i, j] + min(back[i + 1, j], back[i, j + 1], back[i + 1, j + 1])
+    after = back[:nx, :ny] - full
+    rows, cols = np.repeat(np.arange(len(al)), al), np.repeat(np.arange(len(bl)), bl)
+    out = np.full((len(al), len(bl)), np.inf)
+    np.minimum.at(out, (rows[:, None], cols[None, :]), after)
+    return out
+
+
+def test_fused_range_bounds_match_the_references_and_bound_what_follows(tables):
+    """range_cover_both (what the search runs): its value is the larger of the row and the
+    column bound, and its "still to come" per block never exceeds the true cost after any
+    of the block's cells — so the exact DP's corridor never cuts a path within the limit."""
+    _, full, diff = tables
+    rng = np.random.default_rng(55)
+    sharper = 0
+    for _ in range(80):
+        a, b = _slow_codes(rng, max_runs=8), _slow_codes(rng, max_runs=8)
+        av, al = run_length_encode(a)
+        bv, bl = run_length_encode(b)
+        cost = diff.lookup(av[:, None], bv[None, :])
+        distinct, row_of = np.unique(av, return_inverse=True)
+        R = diff.lookup(distinct[:, None], np.arange(diff.size)[None, :]).astype(np.float32)
+        rest2 = np.empty((len(al), len(bl)))
+        both = range_cover_both(R, row_of.astype(np.int64), al, bv, bl, np.zeros(len(al)), np.inf, 1.0, rest2,
+                                np.empty(len(bl)), np.empty(len(bl)))
+        assert both == max(range_cover_numpy(cost, al), range_cover_numpy(cost.T, bl))
+        assert both <= dtw_codes(a, b, full) * (len(a) + len(b)) * (1 + 1e-12)
+        truth = _cost_after_cells(cost, al, bl)
+        assert np.all(rest2 <= truth + 1e-9), (a, b)
+        rows_only = np.empty_like(rest2)
+        range_cover_suffix(cost, al, np.zeros(len(al)), np.inf, 1.0, rows_only, np.empty(len(bl)))
+        assert np.all(rest2 >= rows_only)
+        sharper += np.any(rest2 > rows_only)
+    assert sharper > 20  # the columns' part does tighten the corridor
 
 
 def test_range_bound_abandons_only_above_the_limit(tables):
