@@ -414,6 +414,7 @@ if HAVE_NUMBA:
         before = np.empty(nruns)
         w_f = np.empty(wide)
         w_g = np.empty(wide)
+        w_h = np.empty(wide)
         # Exact mode with exact arithmetic: the block-corner DTW of a few best-bound
         # candidates is an upper bound of their exact distance, so its k-th smallest value
         # bounds the k-th best distance from above before any exact DTW has run.
@@ -460,7 +461,7 @@ if HAVE_NUMBA:
                     before[p] = acc
                     acc += rm[qrd[r0 + p]] * qrl[r0 + p]
                 lb_raw = range_cover_both(R, qrd[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
-                                          before, thr, norm, rest2, w_f, w_g)
+                                          before, thr, norm, rest2, w_f, w_g, w_h)
                 if lb_raw == inf or lb_raw / norm > thr:
                     abandoned += 1
                     range_rejected += 1

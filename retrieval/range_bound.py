@@ -163,45 +163,70 @@ if HAVE_NUMBA:
         return B[0]
 
     @numba.njit(cache=True, nogil=True)
-    def range_cover_both(R, q_rows, q_heights, c_codes, c_widths, before, limit, norm, rest2, B, G):  # pragma: no cover
-        """Both range-cover bounds (rows choosing columns, columns choosing rows) in one
-        backward sweep over the (query run × candidate run) grid, the block costs read
-        straight from the query's table rows: ``c[p, e] = R[q_rows[p], c_codes[e]]``.
-        Fills ``rest2`` like :func:`range_cover_suffix` and abandons like it (``before``:
-        a bound of the rows before each run); returns the raw maximum of the two bounds, or
-        inf. Work arrays ``B`` and ``G``: length >= number of candidate runs.
+    def range_cover_both(R, q_rows, q_heights, c_codes, c_widths, before, limit, norm, rest2, MX, MY, CP):  # pragma: no cover
+        """The row and the column range-cover bounds, each sharpened by the other, in one
+        backward sweep over the (query run × candidate run) grid; the block costs are read
+        straight from the query's table rows: ``c[x, e] = R[q_rows[x], c_codes[e]]``.
 
-        The column DP, ``G_q[x] = min(G_q[x + 1], w_q·c[x, q] + G_{q+1}[x])``, only needs the
-        cell below and the cell to the right, so it runs in the same row-by-row order."""
+        ``X_x[e]``: a bound of the cost of the path's cells in query runs >= x when run x
+        starts in candidate run e; ``Y_e[x]``: of its cells in candidate runs >= e when
+        candidate run e starts in query run x. With ``MX_x[e] = min_{e' >= e} X_x[e']`` and
+        ``MY_e[x] = min_{x' >= x} Y_e[x']`` (0 past the last run):
+
+            X_x[e] = max(min_{y >= e} h_x·c[x, y] + MX_{x+1}[y],  MY_{e+1}[x])
+            Y_e[x] = max(min_{y >= x} w_e·c[y, e] + MY_{e+1}[y],  MX_{x+1}[e])
+
+        The first term of each is the monotone-choice DP of the module docstring; the second
+        adds what the other side must still pay: the candidate runs after e are all crossed
+        by rows of runs >= x, and the query runs after x by columns of runs >= e, and those
+        cells lie inside the set being bounded. Each term bounds the same cells' cost, so
+        their maximum does, and the recursion stays valid. Both need only the row below
+        (``MX_{x+1}``) and the entry to the right (``MY_{e+1}``, ``CP``), so one row-by-row
+        sweep computes them.
+
+        Returns ``max(X_0[0], Y_0[0])`` raw (never below either plain bound), or inf as
+        soon as ``(MX_x[0] + before[x]) / norm > limit`` (``before[x]``: a bound of the
+        rows before run x). ``rest2[x, e] = max(MX_{x+1}[e], MY_{e+1}[x])`` bounds the cost
+        of what follows any cell of block (x, e) — the exact DP's corridor uses it. Work
+        arrays ``MX``, ``MY``, ``CP``: length >= number of candidate runs."""
         inf = np.inf
         kx, ky = q_rows.shape[0], c_codes.shape[0]
         near = limit * norm * (1.0 - 1e-9)
         for e in range(ky):
-            B[e] = 0.0
-            G[e] = inf
-        for p in range(kx - 1, -1, -1):
-            h = np.float64(q_heights[p])
-            Rp = R[q_rows[p]]
-            run = inf
-            right = 0.0
-            out = rest2[p]
+            MX[e] = 0.0  # MX_{x+1}[e]: nothing after the last query run
+            MY[e] = inf  # MY_e[x+1]: no column run starts after the last query run
+            CP[e] = inf  # min_{y > x} w_e·c[y, e] + MY_{e+1}[y]
+        x0 = inf
+        y0 = inf
+        for x in range(kx - 1, -1, -1):
+            h = np.float64(q_heights[x])
+            Rx = R[q_rows[x]]
+            rp = inf  # min_{y >= e} h·c[x, y] + MX_{x+1}[y]
+            mx_run = inf  # MX_x[e + 1]
+            my_next = 0.0  # MY_{e+1}[x]
+            out = rest2[x]
             for e in range(ky - 1, -1, -1):
-                cv = np.float64(Rp[c_codes[e]])
-                old = B[e]
-                # still to come after a cell of block (p, e): the rows after run p (B_{p+1}[e])
-                # and the column runs after e, covered by rows of runs >= p (G_{e+1}[p])
-                out[e] = old if old > right else right
-                val = h * cv + old
-                if run < val:
-                    val = run
-                B[e] = val
-                run = val
-                gv = np.float64(c_widths[e]) * cv + right
-                if G[e] < gv:
-                    gv = G[e]
-                G[e] = gv
-                right = gv
-            v = run + before[p]
+                cv = np.float64(Rx[c_codes[e]])
+                mx_after = MX[e]
+                out[e] = mx_after if mx_after > my_next else my_next
+                t = np.float64(c_widths[e]) * cv + my_next
+                if t < CP[e]:
+                    CP[e] = t
+                yv = CP[e] if CP[e] > mx_after else mx_after
+                t = h * cv + mx_after
+                if t < rp:
+                    rp = t
+                xv = rp if rp > my_next else my_next
+                if xv < mx_run:
+                    mx_run = xv
+                MX[e] = mx_run
+                if yv < MY[e]:
+                    MY[e] = yv
+                my_next = MY[e]
+                if e == 0 and x == 0:
+                    x0 = xv
+                    y0 = yv
+            v = MX[0] + before[x]
             if v > near and v / norm > limit:
                 return inf
-        return B[0] if B[0] > G[0] else G[0]
+        return x0 if x0 > y0 else y0

@@ -232,14 +232,17 @@ def _cost_after_cells(cost: np.ndarray, al: np.ndarray, bl: np.ndarray) -> np.nd
 
 
 def test_fused_range_bounds_match_the_references_and_bound_what_follows(tables):
-    """range_cover_both (what the search runs): its value is the larger of the row and the
-    column bound, and its "still to come" per block never exceeds the true cost after any
-    of the block's cells — so the exact DP's corridor never cuts a path within the limit."""
+    """range_cover_both (what the search runs): its value lies between the larger of the
+    plain row and column bounds and the DTW, and its "still to come" per block never exceeds
+    the true cost after any of the block's cells — so the exact DP's corridor never cuts a
+    path within the limit."""
     _, full, diff = tables
     rng = np.random.default_rng(55)
     sharper = 0
-    for _ in range(80):
-        a, b = _slow_codes(rng, max_runs=8), _slow_codes(rng, max_runs=8)
+    higher = 0
+    for n in range(200):
+        # lengths alike and very different (where the two sides' parts matter most)
+        a, b = _slow_codes(rng, max_runs=8), _slow_codes(rng, max_runs=3 if n % 3 == 0 else 8)
         av, al = run_length_encode(a)
         bv, bl = run_length_encode(b)
         cost = diff.lookup(av[:, None], bv[None, :])
@@ -247,9 +250,11 @@ def test_fused_range_bounds_match_the_references_and_bound_what_follows(tables):
         R = diff.lookup(distinct[:, None], np.arange(diff.size)[None, :]).astype(np.float32)
         rest2 = np.empty((len(al), len(bl)))
         both = range_cover_both(R, row_of.astype(np.int64), al, bv, bl, np.zeros(len(al)), np.inf, 1.0, rest2,
-                                np.empty(len(bl)), np.empty(len(bl)))
-        assert both == max(range_cover_numpy(cost, al), range_cover_numpy(cost.T, bl))
+                                *(np.empty(len(bl)) for _ in range(3)))
+        plain = max(range_cover_numpy(cost, al), range_cover_numpy(cost.T, bl))
+        assert both >= plain - 1e-12
         assert both <= dtw_codes(a, b, full) * (len(a) + len(b)) * (1 + 1e-12)
+        higher += both > plain
         truth = _cost_after_cells(cost, al, bl)
         assert np.all(rest2 <= truth + 1e-9), (a, b)
         rows_only = np.empty_like(rest2)
@@ -257,6 +262,7 @@ def test_fused_range_bounds_match_the_references_and_bound_what_follows(tables):
         assert np.all(rest2 >= rows_only)
         sharper += np.any(rest2 > rows_only)
     assert sharper > 20  # the columns' part does tighten the corridor
+    assert higher > 5  # and each side's part sharpens the other's bound
 
 
 def test_range_bound_abandons_only_above_the_limit(tables):
