@@ -166,10 +166,11 @@ if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
     def _lb_pair(q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
-                 F, absdiff, shift, mask, colmin, R):  # pragma: no cover
+                 F, absdiff, shift, mask, colmin, R, row_out):  # pragma: no cover
         """Normalised max(LB_Kim, envelope rows, envelope columns). ``R`` and ``colmin``
         come from :func:`_query_rows`: the rows need every (query code, candidate code)
-        pair, the columns one load per distinct candidate code."""
+        pair, the columns one load per distinct candidate code. Each query code's cheapest
+        candidate code cost goes to ``row_out`` (the exact search's envelopes reuse it)."""
         inf = np.inf
         nv = c_dv.shape[0]
         rows = 0.0
@@ -180,6 +181,7 @@ if HAVE_NUMBA:
                 d = np.float64(Ru[c_dv[v]])
                 if d < m:
                     m = d
+            row_out[u] = m
             rows += m * q_dc[u]
         cols = 0.0
         for v in range(nv):
@@ -193,23 +195,6 @@ if HAVE_NUMBA:
         if kim > best:
             best = kim
         return best / (nx + ny)
-
-    @numba.njit(cache=True, nogil=True)
-    def _row_mins(q_dv, c_dv, R, out, out_col):  # pragma: no cover
-        """Per distinct query code its cheapest candidate code (out) and per distinct
-        candidate code its cheapest query code (out_col)."""
-        for v in range(c_dv.shape[0]):
-            out_col[v] = np.inf
-        for u in range(q_dv.shape[0]):
-            m = np.inf
-            Ru = R[u]
-            for v in range(c_dv.shape[0]):
-                d = np.float64(Ru[c_dv[v]])
-                if d < m:
-                    m = d
-                if d < out_col[v]:
-                    out_col[v] = d
-            out[u] = m
 
     @numba.njit(cache=True, nogil=True)
     def _plain_dtw_raw(a_row, b, R, lo, hi, rest_row, rest_col, limit, norm, prev, cur):  # pragma: no cover
@@ -330,8 +315,9 @@ if HAVE_NUMBA:
             hi[i] = int(min(max(y, 0.0), ny - 1))
 
     @numba.njit(cache=True, nogil=True)
-    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, out):  # pragma: no cover
-        """Bounds (:func:`_lb_pair`) of every candidate."""
+    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, out, rowmins):  # pragma: no cover
+        """Bounds (:func:`_lb_pair`) of every candidate; ``rowmins[c, u]``: query code u's
+        cheapest code in candidate c."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
@@ -339,10 +325,10 @@ if HAVE_NUMBA:
             b0, b1 = lco[c], lco[c + 1]
             out[c] = _lb_pair(qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
                               ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
-                              F, absdiff, shift, mask, colmin, R)
+                              F, absdiff, shift, mask, colmin, R, rowmins[c])
 
     @numba.njit(cache=True, nogil=True, parallel=True)
-    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, R, colmin, out):  # pragma: no cover
+    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, R, colmin, out, rowmins):  # pragma: no cover
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
@@ -350,10 +336,11 @@ if HAVE_NUMBA:
             b0, b1 = lco[c], lco[c + 1]
             out[c] = _lb_pair(qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
                               ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
-                              F, absdiff, shift, mask, colmin, R)
+                              F, absdiff, shift, mask, colmin, R, rowmins[c])
 
     @numba.njit(cache=True, nogil=True)
-    def _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx, out_dist, stats, abandon=True,
+    def _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx, out_dist, stats,
+                abandon=True,
                 range_bound=False):  # pragma: no cover
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
         (distance, then index). Writes out_idx/out_dist (k) and stats (4)."""
@@ -386,7 +373,6 @@ if HAVE_NUMBA:
         dq = np.empty(big + 2, np.int64)
         lo = np.empty(nx, np.int64)
         hi = np.empty(nx, np.int64)
-        rm = np.empty(d1 - d0)
         rest_run = np.empty(nruns)
         rest_row = np.empty(nx)
         row_didx = np.empty(nx, np.int64)  # query frame -> its distinct-code row of R
@@ -396,7 +382,6 @@ if HAVE_NUMBA:
                 row_didx[i] = qrd[r0 + p]
                 i += 1
         rest_col = np.empty(big + 2)
-        cmin = np.empty(4096 if ldv.shape[0] > 4096 else ldv.shape[0] + 1)
         # without exact arithmetic the bound sums may round differently from the DP: shrink them
         safety = 1.0 if use_rle >= 1 else 1.0 - 1e-9
         pruned = 0
@@ -444,10 +429,7 @@ if HAVE_NUMBA:
             b0, b1 = lco[c], lco[c + 1]
             ny = b1 - b0
             norm = float(nx + ny)
-            nvb = ldo[c + 1] - ldo[c]
-            if cmin.shape[0] < nvb:
-                cmin = np.empty(nvb)
-            _row_mins(qdv[d0:d1], ldv[ldo[c]:ldo[c + 1]], R, rm, cmin)
+            rm = rowmins[c]  # per distinct query code: its cheapest code in this candidate
             acc = 0.0
             for p in range(nruns - 1, -1, -1):
                 rest_run[p] = acc * safety
@@ -474,7 +456,7 @@ if HAVE_NUMBA:
             acc = 0.0
             j = ny - 1
             for p in range(lro[c + 1] - lro[c] - 1, -1, -1):
-                per = cmin[lrd[lro[c] + p]]
+                per = colmin[lrv[lro[c] + p]]  # the run's cheapest query code
                 for s in range(lrl[lro[c] + p]):
                     rest_col[j] = acc * safety
                     acc += per
@@ -525,9 +507,10 @@ if HAVE_NUMBA:
         for qi in numba.prange(nq):
             lbs = np.empty(ncand)
             R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
-            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs)
-            _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi],
-                    True, range_bound)
+            rowmins = np.empty((ncand, Q[8][qi + 1] - Q[8][qi]), np.float32)
+            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs, rowmins)
+            _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi], out_dist[qi],
+                    stats[qi], True, range_bound)
 
 
 # --------------------------------------------------------------------------- public API
@@ -611,13 +594,15 @@ class FastSearcher:
                 lbs = np.empty(len(self.library))
                 R, colmin = _query_rows(packed.dist_val[packed.dist_off[qi]:packed.dist_off[qi + 1]], self._vocab,
                                         t.F, t.absdiff, self._shift, self._mask)
+                rowmins = np.empty((len(self.library), packed.dist_off[qi + 1] - packed.dist_off[qi]), np.float32)
                 if not self.use_bounds:
                     lbs[:] = 0.0
+                    rowmins[:] = 0.0  # no limit, so nothing is cut: the envelopes' values do not matter
                 elif parallel:
-                    _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs)
+                    _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
                 else:
-                    _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs)
-                _refine(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs, k, use_rle, band,
+                    _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
+                _refine(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs, rowmins, colmin, k, use_rle, band,
                         out_idx[qi], out_dist[qi], stats[qi], self.use_bounds, self.range_bound)
         else:
             if not self.use_bounds:

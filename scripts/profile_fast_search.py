@@ -79,9 +79,10 @@ def stages(folds: list[dict]) -> None:
             R, colmin = _query_rows(packed.dist_val, s._vocab, table.F, table.absdiff, s._shift, s._mask)
             t2 = time.perf_counter()
             lbs = np.empty(len(s.library))
-            _lbs_serial(0, packed.arrays(), L, table.F, table.absdiff, s._shift, s._mask, R, colmin, lbs)
+            rowmins = np.empty((len(s.library), len(packed.dist_val)), np.float32)
+            _lbs_serial(0, packed.arrays(), L, table.F, table.absdiff, s._shift, s._mask, R, colmin, lbs, rowmins)
             t3 = time.perf_counter()
-            _refine(0, packed.arrays(), L, table.F, table.absdiff, s._shift, s._mask, R, lbs, 1, use_rle, -1,
+            _refine(0, packed.arrays(), L, table.F, table.absdiff, s._shift, s._mask, R, lbs, rowmins, colmin, 1, use_rle, -1,
                     np.full(1, -1, np.int64), np.full(1, np.inf), np.zeros(5, np.int64), True, True)
             t4 = time.perf_counter()
             for key, dt in zip(t, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
