@@ -195,6 +195,7 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
         s.pruned += m.stats.pruned
         s.abandoned += m.stats.abandoned
         s.completed += m.stats.completed
+        s.range_rejected += m.stats.range_rejected
     for name, s in stats.items():
         protocol[name].update(s.as_dict())
     fast_s = protocol["fast"]["seconds"]

@@ -49,6 +49,49 @@ if HAVE_NUMBA:
 MODES = ("exact", "runs")
 
 
+if HAVE_NUMBA:
+
+    @numba.njit(cache=True, nogil=True)
+    def _pack_one(seq, size):  # pragma: no cover
+        """Runs (value, length), each run's index among the distinct codes, and the sorted
+        distinct codes with their counts, of one sequence of codes in [0, size) — what
+        run_length_encode, distinct_counts and a searchsorted give, in two passes."""
+        n = seq.shape[0]
+        nr = 1
+        for i in range(1, n):
+            if seq[i] != seq[i - 1]:
+                nr += 1
+        run_val = np.empty(nr, np.int32)
+        run_len = np.empty(nr, np.int64)
+        r = 0
+        start = 0
+        for i in range(1, n + 1):
+            if i == n or seq[i] != seq[i - 1]:
+                run_val[r] = seq[i - 1]
+                run_len[r] = i - start
+                start = i
+                r += 1
+        cnt = np.zeros(size, np.int64)
+        nd = 0
+        for i in range(n):
+            if cnt[seq[i]] == 0:
+                nd += 1
+            cnt[seq[i]] += 1
+        dist_val = np.empty(nd, np.int32)
+        dist_cnt = np.empty(nd, np.int64)
+        k = 0
+        for v in range(size):
+            if cnt[v] > 0:
+                dist_val[k] = v
+                dist_cnt[k] = cnt[v]
+                cnt[v] = k  # from here on: the code's index among the distinct codes
+                k += 1
+        run_didx = np.empty(nr, np.int64)
+        for r in range(nr):
+            run_didx[r] = cnt[run_val[r]]
+        return run_val, run_len, run_didx, dist_val, dist_cnt
+
+
 @dataclass
 class PackedCodes:
     """Many code sequences packed into flat arrays (what the compiled kernels take):
@@ -75,9 +118,15 @@ class PackedCodes:
                 raise DTWError(f"sequence {i}: codes must be a non-empty 1-D array, got shape {s.shape}")
             if size is not None and (s.min() < 0 or s.max() >= size):
                 raise DTWError(f"sequence {i}: codes must lie in [0, {size}), got [{s.min()}, {s.max()}]")
-        runs = [run_length_encode(s) for s in seqs]
-        dists = [distinct_counts(s) for s in seqs]
-        didx = [np.searchsorted(d[0], r[0]).astype(np.int64) for r, d in zip(runs, dists)]
+        if HAVE_NUMBA and size is not None:
+            parts = [_pack_one(s, size) for s in seqs]  # one pass each instead of sort + searches
+            runs = [(p[0], p[1]) for p in parts]
+            didx = [p[2] for p in parts]
+            dists = [(p[3], p[4]) for p in parts]
+        else:
+            runs = [run_length_encode(s) for s in seqs]
+            dists = [distinct_counts(s) for s in seqs]
+            didx = [np.searchsorted(d[0], r[0]).astype(np.int64) for r, d in zip(runs, dists)]
         off = lambda parts: np.concatenate(([0], np.cumsum([len(p) for p in parts]))).astype(np.int64)  # noqa: E731
         return cls(
             np.concatenate(seqs), off(seqs),

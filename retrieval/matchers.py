@@ -138,7 +138,8 @@ class FastMatcher:
         if self.searcher is None or self.quantizer is None:
             raise MatcherError("fast matcher used before fit()")
         res = self.searcher.search([self.quantizer.encode(query.features)], k=1, parallel=self.parallel)
-        self.stats.add(np.array([res.stats.candidates, res.stats.pruned, res.stats.abandoned, res.stats.completed]))
+        self.stats.add(np.array([res.stats.candidates, res.stats.pruned, res.stats.abandoned, res.stats.completed,
+                                 res.stats.range_rejected]))
         out = np.full(len(self.searcher), np.inf)
         out[res.indices[0, 0]] = res.distances[0, 0]
         return out

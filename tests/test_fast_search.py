@@ -424,6 +424,16 @@ def test_bad_input_raises_storybeam_errors(tables):
         PackedCodes.from_sequences([])
 
 
+def test_compiled_packing_equals_the_numpy_packing():
+    """With the alphabet size known, sequences are packed by one compiled pass; without it,
+    by run_length_encode + np.unique + searchsorted. Both must give the same arrays."""
+    rng = np.random.default_rng(57)
+    seqs = [_slow_codes(rng, max_runs=30) for _ in range(40)] + [np.array([7], np.int32), np.array([0, 4095], np.int32)]
+    fast, ref = PackedCodes.from_sequences(seqs, 4096), PackedCodes.from_sequences(seqs)
+    for a, b in zip(fast.arrays(), ref.arrays()):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
 def test_motion_index_queries_through_the_fast_search_match_index_query():
     from retrieval.fast_search import fast_query, index_searcher
     from retrieval.index import MotionIndex
