@@ -194,23 +194,27 @@ if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
     def _query_rows(q_dv, vocab, F, absdiff, shift, mask):  # pragma: no cover
-        """R[u, v] = D[q_dv[u], v] for every code v of the library's vocabulary (float32,
-        exact: the table's values are float32; the other columns are never read, so they
-        are left unset — the library uses about a quarter of the 4ⁿ codes), and per code v
-        its cheapest query code, colmin[v] = min_u R[u, v] (inf outside the vocabulary).
-        After this one pass per query every bound costs one load per cell, and a
-        candidate's column envelope costs one load per distinct candidate code."""
-        size = F.shape[0]
-        R = np.empty((q_dv.shape[0], size), np.float32)
-        colmin = np.full(size, np.inf)
+        """R[u, t] = D[q_dv[u], vocab[t]] for every code of the library's vocabulary (float32,
+        exact: the table's values are float32), and per vocabulary code its cheapest query
+        code, colmin[t] = min_u R[u, t]. Columns are vocabulary indices (the library's
+        arrays used with R hold them), so a row is as wide as the codes the library uses
+        (about a quarter of the 4ⁿ) and stays in cache. After this one pass per query every
+        bound costs one load per cell, and a candidate's column envelope costs one load per
+        distinct candidate code."""
+        nv = vocab.shape[0]
+        R = np.empty((q_dv.shape[0], nv), np.float32)
+        colmin = np.full(nv, np.inf)
         for u in range(q_dv.shape[0]):
-            for t in range(vocab.shape[0]):
+            Ru = R[u]
+            ulo = q_dv[u] & mask
+            uhi = q_dv[u] >> shift
+            for t in range(nv):
                 v = vocab[t]
-                x = F[np.int64(absdiff[q_dv[u] & mask, v & mask]) | (np.int64(absdiff[q_dv[u] >> shift, v >> shift]) << shift)]
-                R[u, v] = x
+                x = F[np.int64(absdiff[ulo, v & mask]) | (np.int64(absdiff[uhi, v >> shift]) << shift)]
+                Ru[t] = x
                 d = np.float64(x)
-                if d < colmin[v]:
-                    colmin[v] = d
+                if d < colmin[t]:
+                    colmin[t] = d
         return R, colmin
 
     @numba.njit(cache=True, nogil=True)
@@ -388,13 +392,14 @@ if HAVE_NUMBA:
                               F, absdiff, shift, mask, colmin, R, rowmins[c])
 
     @numba.njit(cache=True, nogil=True)
-    def _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx, out_dist, stats,
-                abandon=True,
-                range_bound=False):  # pragma: no cover
+    def _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx, out_dist,
+                stats, abandon=True, range_bound=False):  # pragma: no cover
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
-        (distance, then index). Writes out_idx/out_dist (k) and stats (4)."""
+        (distance, then index). Writes out_idx/out_dist (k) and stats (5). ``LV``: the
+        library's codes and run values as vocabulary indices (columns of ``R``)."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
+        (lc_v, lrv_v) = LV
         inf = np.inf
         ncand = lco.shape[0] - 1
         a0, a1 = qco[qi], qco[qi + 1]
@@ -491,7 +496,7 @@ if HAVE_NUMBA:
                 for p in range(nruns):
                     before[p] = acc
                     acc += rm[qrd[r0 + p]] * qrl[r0 + p]
-                lb_raw = range_cover_both(R, qrd[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
+                lb_raw = range_cover_both(R, qrd[r0:r1], qrl[r0:r1], lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
                                           before, thr, norm, rest2, w_f, w_g, w_h)
                 if lb_raw == inf or lb_raw / norm > thr:
                     abandoned += 1
@@ -505,7 +510,7 @@ if HAVE_NUMBA:
             acc = 0.0
             j = ny - 1
             for p in range(lro[c + 1] - lro[c] - 1, -1, -1):
-                per = colmin[lrv[lro[c] + p]]  # the run's cheapest query code
+                per = colmin[lrv_v[lro[c] + p]]  # the run's cheapest query code
                 for s in range(lrl[lro[c] + p]):
                     rest_col[j] = acc * safety
                     acc += per
@@ -527,7 +532,7 @@ if HAVE_NUMBA:
                         acc += per
                         i -= 1
                 _band_limits_nb(nx, ny, band, lo, hi)
-                raw = _plain_dtw_raw(row_didx, lc[b0:b1], R, lo, hi, rest_row, rest_col, thr, norm,
+                raw = _plain_dtw_raw(row_didx, lc_v[b0:b1], R, lo, hi, rest_row, rest_col, thr, norm,
                                      row_prev, row_next)
             if raw == inf:
                 abandoned += 1
@@ -550,7 +555,7 @@ if HAVE_NUMBA:
         stats[4] = range_rejected
 
     @numba.njit(cache=True, nogil=True, parallel=True)
-    def _search_batch(Q, L, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):  # pragma: no cover
+    def _search_batch(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):  # pragma: no cover
         nq = Q[1].shape[0] - 1
         ncand = L[1].shape[0] - 1
         for qi in numba.prange(nq):
@@ -558,8 +563,8 @@ if HAVE_NUMBA:
             R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
             rowmins = np.empty((ncand, Q[8][qi + 1] - Q[8][qi]), np.float32)
             _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs, rowmins)
-            _refine(qi, Q, L, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi], out_dist[qi],
-                    stats[qi], True, range_bound)
+            _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi],
+                    out_dist[qi], stats[qi], True, range_bound)
 
 
 # --------------------------------------------------------------------------- public API
@@ -598,7 +603,17 @@ class FastSearcher:
         self.band = band
         self.backend = _resolve_backend(backend)
         self.library = PackedCodes.from_sequences(library, table.size)
-        self._vocab = np.unique(self.library.dist_val)  # the codes the library uses
+        lib = self.library
+        self._vocab = np.unique(lib.dist_val)  # the codes the library uses
+
+        def vocab_index(a: np.ndarray) -> np.ndarray:
+            return np.searchsorted(self._vocab, a).astype(np.int32)
+
+        # what the kernels take: the distinct codes as vocabulary indices (the columns of
+        # the query's table rows), plus the codes and run values likewise (LV)
+        arrays = lib.arrays()
+        self._L = arrays[:6] + (vocab_index(lib.dist_val),) + arrays[7:]
+        self._LV = (vocab_index(lib.codes), vocab_index(lib.run_val))
         self.use_bounds = use_bounds
         longest = int(self.library.lengths.max())
         self._longest = longest
@@ -615,7 +630,8 @@ class FastSearcher:
 
     @property
     def index_bytes_per_clip(self) -> float:
-        return self.library.nbytes / len(self.library)
+        extra = sum(a.nbytes for a in self._LV) + self._L[6].nbytes + self._vocab.nbytes
+        return (self.library.nbytes + extra) / len(self.library)
 
     def _kernel(self, longest_query: int) -> int:
         """0: plain DP, 1: exact run-length block DP, 2: block-corner approximation."""
@@ -636,7 +652,7 @@ class FastSearcher:
         stats = np.zeros((nq, 5), np.int64)
         use_rle = self._kernel(int(packed.lengths.max()))
         band = -1 if self.band is None else int(self.band)
-        Q, L = packed.arrays(), self.library.arrays()
+        Q, L, LV = packed.arrays(), self._L, self._LV
         t = self.table
         if nq == 1 or not parallel:
             for qi in range(nq):
@@ -651,12 +667,12 @@ class FastSearcher:
                     _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
                 else:
                     _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
-                _refine(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, lbs, rowmins, colmin, k, use_rle, band,
+                _refine(qi, Q, L, LV, t.F, t.absdiff, self._shift, self._mask, R, lbs, rowmins, colmin, k, use_rle, band,
                         out_idx[qi], out_dist[qi], stats[qi], self.use_bounds, self.range_bound)
         else:
             if not self.use_bounds:
                 raise DTWError("use_bounds=False is only supported for serial searches")
-            _search_batch(Q, L, self._vocab, t.F, t.absdiff, self._shift, self._mask, k, use_rle, band, out_idx, out_dist, stats,
+            _search_batch(Q, L, LV, self._vocab, t.F, t.absdiff, self._shift, self._mask, k, use_rle, band, out_idx, out_dist, stats,
                           self.range_bound)
         res = SearchResult(out_idx, out_dist)
         for row in stats:

@@ -70,7 +70,7 @@ def stages(folds: list[dict]) -> None:
     for fd in folds:
         table = fd["table"]
         s = FastSearcher(fd["refs"], table)
-        L = s.library.arrays()
+        L, LV = s._L, s._LV
         use_rle = s._kernel(max(len(q) for q in fd["queries"]))
         for q in fd["queries"]:
             t0 = time.perf_counter()
@@ -82,7 +82,7 @@ def stages(folds: list[dict]) -> None:
             rowmins = np.empty((len(s.library), len(packed.dist_val)), np.float32)
             _lbs_serial(0, packed.arrays(), L, table.F, table.absdiff, s._shift, s._mask, R, colmin, lbs, rowmins)
             t3 = time.perf_counter()
-            _refine(0, packed.arrays(), L, table.F, table.absdiff, s._shift, s._mask, R, lbs, rowmins, colmin, 1, use_rle, -1,
+            _refine(0, packed.arrays(), L, LV, table.F, table.absdiff, s._shift, s._mask, R, lbs, rowmins, colmin, 1, use_rle, -1,
                     np.full(1, -1, np.int64), np.full(1, np.inf), np.zeros(5, np.int64), True, True)
             t4 = time.perf_counter()
             for key, dt in zip(t, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
