@@ -606,14 +606,12 @@ class FastSearcher:
         lib = self.library
         self._vocab = np.unique(lib.dist_val)  # the codes the library uses
 
-        def vocab_index(a: np.ndarray) -> np.ndarray:
-            return np.searchsorted(self._vocab, a).astype(np.int32)
-
         # what the kernels take: the distinct codes as vocabulary indices (the columns of
-        # the query's table rows), plus the codes and run values likewise (LV)
+        # the query's table rows), plus the run values likewise (LV); the codes as indices
+        # only once a search needs the frame-level DP (band, or sums that are not exact)
         arrays = lib.arrays()
-        self._L = arrays[:6] + (vocab_index(lib.dist_val),) + arrays[7:]
-        self._LV = (vocab_index(lib.codes), vocab_index(lib.run_val))
+        self._L = arrays[:6] + (self._vocab_index(lib.dist_val),) + arrays[7:]
+        self._LV = (np.zeros(0, np.int32), self._vocab_index(lib.run_val))
         self.use_bounds = use_bounds
         longest = int(self.library.lengths.max())
         self._longest = longest
@@ -623,6 +621,9 @@ class FastSearcher:
 
     def __len__(self) -> int:
         return len(self.library)
+
+    def _vocab_index(self, codes: np.ndarray) -> np.ndarray:
+        return np.searchsorted(self._vocab, codes).astype(np.int32)
 
     @property
     def table_bytes(self) -> int:
@@ -652,6 +653,8 @@ class FastSearcher:
         stats = np.zeros((nq, 5), np.int64)
         use_rle = self._kernel(int(packed.lengths.max()))
         band = -1 if self.band is None else int(self.band)
+        if (use_rle != 1 or band >= 0) and len(self._LV[0]) == 0:
+            self._LV = (self._vocab_index(self.library.codes), self._LV[1])
         Q, L, LV = packed.arrays(), self._L, self._LV
         t = self.table
         if nq == 1 or not parallel:
