@@ -685,8 +685,15 @@ class FastSearcher:
     # ------------------------------------------------------------------ numpy path
     def _search_numpy(self, packed: PackedCodes, k: int) -> SearchResult:
         from .lower_bounds import lower_bound
+        from .range_bound import monotone_cover_numpy
 
         lib = self.library
+        # the range-cover bound (rows and columns, each a vectorised monotone-choice DP
+        # per run) rejects most candidates that pass the envelope before their DP runs; it
+        # needs the seed's unconstrained distance. Its sums may round differently from the
+        # DP's: shrink it by a relative 1e-9 so the comparison stays safe.
+        use_range = self.use_bounds and self.range_bound and self.mode == "exact" and self.band is None
+        rejected = 0
         out_idx = np.full((len(packed), k), -1, np.int64)
         out_dist = np.full((len(packed), k), np.inf)
         stats = SearchStats()
@@ -699,12 +706,22 @@ class FastSearcher:
             order = np.argsort(lbs, kind="stable")
             best: list[tuple[float, int]] = []
             pruned = 0
+            q_runs = packed.run_val[packed.run_off[qi]:packed.run_off[qi + 1]]
+            q_lens = packed.run_len[packed.run_off[qi]:packed.run_off[qi + 1]]
             for pos, c in enumerate(order):
                 thr = best[k - 1][0] if len(best) >= k else np.inf
                 if lbs[c] > thr:
                     pruned = len(order) - pos
                     break
                 b = lib.sequence(c)
+                if use_range and thr < np.inf:
+                    c_runs = lib.run_val[lib.run_off[c]:lib.run_off[c + 1]]
+                    c_lens = lib.run_len[lib.run_off[c]:lib.run_off[c + 1]]
+                    cost = self.table.lookup(q_runs[:, None], c_runs[None, :])
+                    rb = max(monotone_cover_numpy(cost, q_lens), monotone_cover_numpy(cost.T, c_lens))
+                    if rb * (1.0 - 1e-9) / (len(a) + len(b)) > thr:
+                        rejected += 1
+                        continue
                 if self.mode == "runs":
                     av, al = run_length_encode(a)
                     bv, bl = run_length_encode(b)
@@ -718,7 +735,10 @@ class FastSearcher:
                 out_idx[qi, t], out_dist[qi, t] = c, d
             stats.candidates += len(lib)
             stats.pruned += pruned
-            stats.completed += len(lib) - pruned
+            stats.completed += len(lib) - pruned - rejected
+            stats.abandoned += rejected
+            stats.range_rejected += rejected
+            rejected = 0
         return SearchResult(out_idx, out_dist, stats)
 
 

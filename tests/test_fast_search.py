@@ -240,6 +240,7 @@ def test_fused_range_bounds_match_the_references_and_bound_what_follows(tables):
     rng = np.random.default_rng(55)
     sharper = 0
     higher = 0
+    abandoned = 0
     for n in range(200):
         # lengths alike and very different (where the two sides' parts matter most)
         a, b = _slow_codes(rng, max_runs=8), _slow_codes(rng, max_runs=3 if n % 3 == 0 else 8)
@@ -249,12 +250,23 @@ def test_fused_range_bounds_match_the_references_and_bound_what_follows(tables):
         distinct, row_of = np.unique(av, return_inverse=True)
         R = diff.lookup(distinct[:, None], np.arange(diff.size)[None, :]).astype(np.float32)
         rest2 = np.empty((len(al), len(bl)))
-        both = range_cover_both(R, row_of.astype(np.int64), al, bv, bl, np.zeros(len(al)), np.inf, 1.0, rest2,
-                                *(np.empty(len(bl)) for _ in range(3)))
+        work = tuple(np.empty(len(bl)) for _ in range(3))
+        q_rows = row_of.astype(np.int64)
+        both = range_cover_both(R, q_rows, al, bv, bl, np.zeros(len(al)), np.inf, 1.0, rest2, *work)
         plain = max(range_cover_numpy(cost, al), range_cover_numpy(cost.T, bl))
+        norm = float(len(a) + len(b))
+        exact = dtw_codes(a, b, full)
         assert both >= plain - 1e-12
-        assert both <= dtw_codes(a, b, full) * (len(a) + len(b)) * (1 + 1e-12)
+        assert both <= exact * norm * (1 + 1e-12)
         higher += both > plain
+        # abandoning with the envelope of the rows before each run: never when the DTW is
+        # within the limit; often when the limit is well below the bound
+        before = np.concatenate(([0.0], np.cumsum(cost.min(axis=1) * al)[:-1]))
+        scratch = np.empty_like(rest2)
+        within = range_cover_both(R, q_rows, al, bv, bl, before, exact, norm, scratch, *work)
+        assert within != np.inf and within / norm <= exact
+        below = range_cover_both(R, q_rows, al, bv, bl, before, 0.5 * plain / norm, norm, scratch, *work)
+        abandoned += below == np.inf
         truth = _cost_after_cells(cost, al, bl)
         assert np.all(rest2 <= truth + 1e-9), (a, b)
         rows_only = np.empty_like(rest2)
@@ -263,6 +275,7 @@ def test_fused_range_bounds_match_the_references_and_bound_what_follows(tables):
         sharper += np.any(rest2 > rows_only)
     assert sharper > 20  # the columns' part does tighten the corridor
     assert higher > 5  # and each side's part sharpens the other's bound
+    assert abandoned > 100  # a limit below the bound is noticed (the bound is rarely 0)
 
 
 def test_range_bound_abandons_only_above_the_limit(tables):
@@ -408,6 +421,22 @@ def test_numpy_and_numba_paths_agree_on_quantised_real_features(tables):
     b = FastSearcher(codes[5:], diff, backend="numpy").search(codes[:5], k=2)
     assert np.array_equal(a.indices, b.indices) and np.array_equal(a.distances, b.distances)
     assert np.array_equal(a.indices, brute_force(codes[:5], codes[5:], q.table(), k=2)[0])
+
+
+def test_numpy_path_rejects_with_the_range_bound_and_still_equals_brute_force(tables):
+    """The numpy path (no numba) checks the row/column range-cover bound before each DP:
+    same neighbours and distances as brute force, with and without it, and it does work."""
+    _, full, diff = tables
+    rng = np.random.default_rng(59)
+    lib = [_slow_codes(rng, max_runs=30, max_run=10) for _ in range(60)]
+    qs = [_slow_codes(rng, max_runs=30, max_run=10) for _ in range(10)] + [lib[7][2:]]
+    idx, dist = brute_force(qs, lib, full, k=2)
+    on = FastSearcher(lib, diff, backend="numpy").search(qs, k=2)
+    off = FastSearcher(lib, diff, backend="numpy", range_bound=False).search(qs, k=2)
+    for res in (on, off):
+        assert np.array_equal(res.indices, idx) and np.array_equal(res.distances, dist)
+    assert on.stats.range_rejected > 0 and off.stats.range_rejected == 0
+    assert on.stats.completed < off.stats.completed
 
 
 def test_bad_input_raises_storybeam_errors(tables):
