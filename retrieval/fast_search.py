@@ -406,7 +406,6 @@ if HAVE_NUMBA:
         nx = a1 - a0
         r0, r1 = qro[qi], qro[qi + 1]
         nruns = r1 - r0
-        d0, d1 = qdo[qi], qdo[qi + 1]
         for t in range(k):
             out_idx[t] = -1
             out_dist[t] = inf
@@ -451,9 +450,9 @@ if HAVE_NUMBA:
         wide = maxruns if maxruns > nruns else nruns
         rest2_buf = np.empty(nruns * maxruns)
         before = np.empty(nruns)
-        w_f = np.empty(wide)
-        w_g = np.empty(wide)
-        w_h = np.empty(wide)
+        mx_buf = np.empty(wide)  # range_cover_both's work rows
+        my_buf = np.empty(wide)
+        cp_buf = np.empty(wide)
         # Exact mode with exact arithmetic: the block-corner DTW of a few best-bound
         # candidates is an upper bound of their exact distance, so its k-th smallest value
         # bounds the k-th best distance from above before any exact DTW has run.
@@ -497,7 +496,7 @@ if HAVE_NUMBA:
                     before[p] = acc
                     acc += rm[qrd[r0 + p]] * qrl[r0 + p]
                 lb_raw = range_cover_both(R, qrd[r0:r1], qrl[r0:r1], lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
-                                          before, thr, norm, rest2, w_f, w_g, w_h)
+                                          before, thr, norm, rest2, mx_buf, my_buf, cp_buf)
                 if lb_raw == inf or lb_raw / norm > thr:
                     abandoned += 1
                     range_rejected += 1
