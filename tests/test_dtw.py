@@ -124,3 +124,35 @@ def test_bad_input_raises_dtw_error():
         dtw_codes(np.array([1]), np.array([1]), TABLE, backend="cuda")
     with pytest.raises(DTWError):
         dtw_features(np.zeros((3, 2)), np.zeros((3, 3)))
+
+
+def test_kernel_cache_folder_follows_every_kernel_source(tmp_path):
+    """numba keys its cache on one source file; the kernels call across files, so the cache
+    folder is keyed on all of them: any edit moves it, identical sources share it, and a
+    child process (which inherits NUMBA_CACHE_DIR) resolves to the same folder."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import retrieval.dtw as dtw_module
+    from retrieval.dtw import KERNEL_MODULES, kernel_cache_dir
+
+    src = Path(dtw_module.__file__).resolve().parent
+    copy = tmp_path / "src"
+    copy.mkdir()
+    for name in KERNEL_MODULES:
+        shutil.copy(src / name, copy / name)
+    root = tmp_path / "cache"
+    first = kernel_cache_dir(root, copy)
+    assert first.parent == root and first == kernel_cache_dir(root, copy) == kernel_cache_dir(root, src)
+    for name in KERNEL_MODULES:
+        (copy / name).write_text((src / name).read_text() + "\n# edited\n")
+        assert kernel_cache_dir(root, copy) != first, name
+        shutil.copy(src / name, copy / name)
+    # this process and a child started with its environment agree on the folder
+    here = os.environ["NUMBA_CACHE_DIR"]
+    child = subprocess.run([sys.executable, "-c", "import os, retrieval.dtw; print(os.environ['NUMBA_CACHE_DIR'])"],
+                           capture_output=True, text=True, env=dict(os.environ), check=True)
+    assert child.stdout.strip() == here
