@@ -46,9 +46,12 @@ form (the tests check it against the definition, :func:`range_cover_numpy`). The
 bound is the same DP with the roles swapped, and :func:`range_cover_both` computes both in
 one backward sweep over the grid, reading the costs straight from the query's table rows.
 
-**Early abandoning.** ``min_x f_p[x]`` bounds the cost of the rows of runs 0..p, and
-``rest[p]`` (the envelope of the rows after run p) that of the rest, so when their sum
-exceeds the limit no path is within it: the function returns inf.
+**Early abandoning.** Swept backwards, ``min_e B_p[e]`` bounds the cost of the rows of
+runs p.. and ``before[p]`` (the envelope of the rows before run p) that of the others, so
+when their sum exceeds the limit no path is within it: :func:`range_cover_both` returns inf.
+
+:func:`range_cover_numpy` (the definition) and :func:`monotone_cover_numpy` (the DP) are
+the numpy references; the numpy search path uses the latter.
 """
 from __future__ import annotations
 
@@ -97,70 +100,6 @@ def range_lower_bound(a: np.ndarray, b: np.ndarray, table: DiffTable) -> float:
 
 
 if HAVE_NUMBA:
-
-    @numba.njit(cache=True, nogil=True)
-    def range_cover_raw(C, heights, transpose, rest, limit, norm, f):  # pragma: no cover
-        """Raw range-cover bound of the block costs ``C`` (rows = query runs; with
-        ``transpose`` the roles swap: rows are ``C``'s columns), or inf as soon as
-        ``(min_x f_p[x] + rest[p]) / norm > limit``. Work array ``f``: length >= runs of the
-        covered side."""
-        inf = np.inf
-        if transpose:
-            kx, ky = C.shape[1], C.shape[0]
-        else:
-            kx, ky = C.shape[0], C.shape[1]
-        near = limit * norm * (1.0 - 1e-9)  # the exact division test runs only near the limit
-        for x in range(ky):
-            f[x] = 0.0
-        for p in range(kx):
-            h = np.float64(heights[p])
-            run = inf
-            for x in range(ky):
-                cv = C[x, p] if transpose else C[p, x]
-                val = h * cv + f[x]
-                if run < val:
-                    val = run
-                f[x] = val
-                run = val
-            v = run + rest[p]  # f_p is non-increasing: its minimum is its last entry
-            if v > near and v / norm > limit:
-                return inf
-        return f[ky - 1]
-
-    @numba.njit(cache=True, nogil=True)
-    def range_cover_suffix(C, heights, before, limit, norm, rest2, B):  # pragma: no cover
-        """The row range-cover bound computed backwards, which also yields an order-aware
-        "cost still to come" for the exact DP's corridor.
-
-        ``B_p[e]`` = the minimum over monotone choices for runs p..P−1 with ``y_p >= e`` of
-        Σ h·c (= over range sequences with ``e_p = e``): ``B_p[e] = min(B_p[e + 1], h_p·c[p,
-        e] + B_{p+1}[e])``, non-decreasing in e. ``rest2[p, x] = B_{p+1}[x]`` (0 for the last
-        run) bounds the cost of the rows after run p of any path that is in candidate run x
-        at the end of run p (run p+1's cells all lie in runs >= x). It is never below the
-        envelope suffix (a minimum over a subset of columns). Returns ``B_0[0]`` (the bound;
-        equal to the forward :func:`range_cover_raw`), or inf as soon as ``(B_p[0] +
-        before[p]) / norm > limit`` where ``before[p]`` bounds the rows before run p.
-        ``rest2``: (P, Q) output; work array ``B`` of length >= Q."""
-        inf = np.inf
-        kx, ky = C.shape[0], C.shape[1]
-        near = limit * norm * (1.0 - 1e-9)
-        for e in range(ky):
-            B[e] = 0.0
-        for p in range(kx - 1, -1, -1):
-            h = np.float64(heights[p])
-            run = inf
-            for e in range(ky - 1, -1, -1):
-                old = B[e]
-                rest2[p, e] = old
-                val = h * C[p, e] + old
-                if run < val:
-                    val = run
-                B[e] = val
-                run = val
-            v = run + before[p]
-            if v > near and v / norm > limit:
-                return inf
-        return B[0]
 
     @numba.njit(cache=True, nogil=True)
     def range_cover_both(R, q_rows, q_heights, c_codes, c_widths, before, limit, norm, rest2, MX, MY, CP):  # pragma: no cover

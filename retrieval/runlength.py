@@ -199,10 +199,10 @@ if HAVE_NUMBA:
                     row_prev, row_next, left, right, buf_a, buf_b, dq):  # pragma: no cover
         """Raw DTW over runs. The block cost is ``D[a_val[p], b_val[q]]`` through the
         difference table (F, absdiff, shift, mask); ``rest[p, q]`` a lower bound
-        of the cost of the rows after row-run p for a path that is in column-run q at the
-        end of row-run p (e.g. the envelope suffix, the same for every q, or the
-        order-aware :func:`retrieval.range_bound.range_cover_suffix`), ``rest_col[j]`` one
-        of the columns after column j. A cell with (D + max(rest[p, q], rest_col[j])) / norm
+        of the cost of what follows any cell of block (p, q) on a path to the end (e.g. the
+        envelope of the rows after row-run p, the same for every q, or the order-aware
+        rows-and-columns bound of :func:`retrieval.range_bound.range_cover_both`),
+        ``rest_col[j]`` one of the columns after column j. A cell with (D + max(rest[p, q], rest_col[j])) / norm
         > limit is marked dead
         (what is left of any path through it covers all later rows and all later columns),
         blocks no live cell can reach are skipped, and the result is inf as soon as a

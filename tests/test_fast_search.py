@@ -14,8 +14,7 @@ from retrieval.errors import StoryBeamError
 from retrieval.fast_search import FastSearcher, PackedCodes, brute_force, brute_force_runs
 from retrieval.lower_bounds import envelope_sums, lb_kim, lower_bound
 from retrieval.quantize import Quantizer, full_table
-from retrieval.range_bound import (monotone_cover_numpy, range_cover_both, range_cover_numpy, range_cover_raw,
-                                   range_cover_suffix, range_lower_bound)
+from retrieval.range_bound import monotone_cover_numpy, range_cover_both, range_cover_numpy, range_lower_bound
 from retrieval.runlength import rle_dtw_numpy, rle_dtw_raw, rle_is_exact, run_length_decode, run_length_encode
 
 
@@ -123,31 +122,27 @@ def _range_parts(a, b, diff):
     return diff.lookup(av[:, None], bv[None, :]), al, bl
 
 
-def _work_ranges(n: int):
-    return (np.empty(n),)
+def _fused(a, b, diff, before=None, limit=np.inf, norm=1.0):
+    """range_cover_both of two code sequences (what the search runs): (raw value, rest2)."""
+    av, al = run_length_encode(a)
+    bv, bl = run_length_encode(b)
+    distinct, row_of = np.unique(av, return_inverse=True)
+    R = diff.lookup(distinct[:, None], np.arange(diff.size)[None, :]).astype(np.float32)  # vocabulary = all codes
+    rest2 = np.empty((len(al), len(bl)))
+    before = np.zeros(len(al)) if before is None else before
+    value = range_cover_both(R, row_of.astype(np.int64), al, bv, bl, before, limit, norm, rest2,
+                             *(np.empty(len(bl)) for _ in range(3)))
+    return value, rest2
 
 
-def _cost_to_go_rows(cost: np.ndarray, al: np.ndarray, bl: np.ndarray) -> np.ndarray:
-    """Exact minimum cost of the rows after run p over paths whose last cell of run p lies
-    in column run q (brute force on the expanded grid, for the rest2 check)."""
-    full = np.repeat(np.repeat(cost, al, axis=0), bl, axis=1)
-    nx, ny = full.shape
-    back = np.full((nx + 1, ny + 1), np.inf)  # back[i, j]: cheapest from cell (i, j) to the end, inclusive
-    back[nx - 1, ny - 1] = full[nx - 1, ny - 1]
-    for i in range(nx - 1, -1, -1):
-        for j in range(ny - 1, -1, -1):
-            if i == nx - 1 and j == ny - 1:
-                continue
-            back[i, j] = full[i, j] + min(back[i + 1, j], back[i, j + 1], back[i + 1, j + 1])
-    row_end = np.cumsum(al) - 1
-    col_of = np.repeat(np.arange(len(bl)), bl)
-    out = np.full((len(al), len(bl)), np.inf)
-    for p in range(len(al) - 1):
-        i = row_end[p]
-        for j in range(ny):  # the path leaves (i, j) downwards or diagonally into run p + 1
-            nxt = min(back[i + 1, j], back[i + 1, j + 1] if j + 1 < ny else np.inf)
-            out[p, col_of[j]] = min(out[p, col_of[j]], nxt)
-    out[-1] = 0.0
+def _rows_suffix_numpy(cost: np.ndarray, al: np.ndarray) -> np.ndarray:
+    """The rows-only monotone-choice cost-to-go: out[p, e] = min over choices for the runs
+    after p that start at candidate run >= e (0 after the last run)."""
+    out = np.zeros(cost.shape)
+    B = np.zeros(cost.shape[1])
+    for p in range(cost.shape[0] - 1, -1, -1):
+        out[p] = B
+        B = np.minimum.accumulate((al[p] * cost[p] + B)[::-1])[::-1]
     return out
 
 
@@ -162,15 +157,9 @@ def test_range_bound_never_exceeds_the_dtw_and_is_tighter_than_the_envelope(tabl
         assert lb <= d, (a, b, lb, d)
         assert lb >= max(envelope_sums(a, b, diff)) / (len(a) + len(b))  # never looser than the envelope
         tighter += lb > lower_bound(a, b, diff)
-        # the compiled kernels give the reference numbers, forwards, backwards and transposed
+        # the compiled search kernel is never below the plain row and column bounds
         cost, al, bl = _range_parts(a, b, diff)
-        n = max(len(al), len(bl)) + 1
-        rows = range_cover_numpy(cost, al)
-        assert range_cover_raw(cost, al, False, np.zeros(len(al)), np.inf, 1.0, *_work_ranges(n)) == rows
-        assert range_cover_raw(cost, bl, True, np.zeros(len(bl)), np.inf, 1.0, *_work_ranges(n)) == \
-            range_cover_numpy(cost.T, bl)
-        rest2 = np.empty((len(al), len(bl)))
-        assert range_cover_suffix(cost, al, np.zeros(len(al)), np.inf, 1.0, rest2, *_work_ranges(n)) == rows
+        assert _fused(a, b, diff)[0] >= max(range_cover_numpy(cost, al), range_cover_numpy(cost.T, bl)) - 1e-12
     assert tighter > 100  # it does see the order: often strictly above the envelope bound
 
 
@@ -187,17 +176,13 @@ def test_range_bound_on_quantised_real_features(tables):
         assert range_lower_bound(a, b, diff) <= dtw_codes(a, b, full)
 
 
-def test_range_suffix_rest_bounds_the_true_cost_to_go(tables):
+def test_range_cost_to_go_is_never_below_the_envelope_suffix(tables):
     _, _, diff = tables
     rng = np.random.default_rng(47)
     for _ in range(60):
         a, b = _slow_codes(rng, max_runs=10), _slow_codes(rng, max_runs=10)
         cost, al, bl = _range_parts(a, b, diff)
-        rest2 = np.empty((len(al), len(bl)))
-        range_cover_suffix(cost, al, np.zeros(len(al)), np.inf, 1.0, rest2, *_work_ranges(len(bl) + 1))
-        truth = _cost_to_go_rows(cost, al, bl)
-        assert np.all(rest2 <= truth), (a, b)
-        # and never below the envelope suffix it replaces
+        rest2 = _fused(a, b, diff)[1]
         env = cost.min(axis=1) * al
         suffix = np.concatenate((np.cumsum(env[::-1])[::-1][1:], [0.0]))
         assert np.all(rest2 >= suffix[:, None])
@@ -211,6 +196,10 @@ def test_monotone_choice_dp_equals_the_range_cover_definition():
         cost = rng.integers(0, 6, (P, Q)) * rng.random()
         h = rng.integers(1, 6, P)
         assert monotone_cover_numpy(cost, h) == pytest.approx(range_cover_numpy(cost, h), abs=1e-12)
+        rest = _rows_suffix_numpy(cost, h)  # and its cost-to-go is the definition's on what is left
+        p, e = rng.integers(0, P), rng.integers(0, Q)
+        want = range_cover_numpy(cost[p + 1:, e:], h[p + 1:]) if p + 1 < P else 0.0
+        assert rest[p, e] == pytest.approx(want, abs=1e-12)
 
 
 def _cost_after_cells(cost: np.ndarray, al: np.ndarray, bl: np.ndarray) -> np.ndarray:
@@ -269,9 +258,8 @@ def test_fused_range_bounds_match_the_references_and_bound_what_follows(tables):
         abandoned += below == np.inf
         truth = _cost_after_cells(cost, al, bl)
         assert np.all(rest2 <= truth + 1e-9), (a, b)
-        rows_only = np.empty_like(rest2)
-        range_cover_suffix(cost, al, np.zeros(len(al)), np.inf, 1.0, rows_only, np.empty(len(bl)))
-        assert np.all(rest2 >= rows_only)
+        rows_only = _rows_suffix_numpy(cost, al)
+        assert np.all(rest2 >= rows_only - 1e-12)
         sharper += np.any(rest2 > rows_only)
     assert sharper > 20  # the columns' part does tighten the corridor
     assert higher > 5  # and each side's part sharpens the other's bound
@@ -284,19 +272,13 @@ def test_range_bound_abandons_only_above_the_limit(tables):
     for _ in range(200):
         a, b = _slow_codes(rng), _slow_codes(rng)
         cost, al, bl = _range_parts(a, b, diff)
-        n = max(len(al), len(bl)) + 1
         norm = float(len(a) + len(b))
         exact = dtw_codes(a, b, full)
-        env = cost.min(axis=1) * al
-        before = np.concatenate(([0.0], np.cumsum(env)[:-1]))
-        rest = np.concatenate((np.cumsum(env[::-1])[::-1][1:], [0.0]))
-        rest2 = np.empty((len(al), len(bl)))
+        before = np.concatenate(([0.0], np.cumsum(cost.min(axis=1) * al)[:-1]))
         for limit in (exact, exact * 0.9, exact * 1.1):
-            fwd = range_cover_raw(cost, al, False, rest, limit, norm, *_work_ranges(n))
-            bwd = range_cover_suffix(cost, al, before, limit, norm, rest2, *_work_ranges(n))
-            for r in (fwd, bwd):
-                if limit >= exact:  # the exact DTW is within the limit: never abandoned, never above it
-                    assert r != np.inf and r / norm <= limit
+            r = _fused(a, b, diff, before, limit, norm)[0]
+            if limit >= exact:  # the exact DTW is within the limit: never abandoned, never above it
+                assert r != np.inf and r / norm <= limit
 
 
 def test_search_with_and_without_the_range_bound_equals_brute_force(tables):
