@@ -46,7 +46,7 @@ form (the tests check it against the definition, :func:`range_cover_numpy`). The
 bound is the same DP with the roles swapped, and :func:`range_cover_both` computes both in
 one backward sweep over the grid, reading the costs straight from the query's table rows.
 
-**Early abandoning.** Swept backwards, ``min_e B_p[e]`` bounds the cost of the rows of
+**Early abandoning.** Swept backwards, ``min_e X_p[e]`` (see :func:`range_cover_both`) bounds the cost of the rows of
 runs p.. and ``before[p]`` (the envelope of the rows before run p) that of the others, so
 when their sum exceeds the limit no path is within it: :func:`range_cover_both` returns inf.
 
