@@ -483,10 +483,11 @@ if HAVE_NUMBA:
             ny = b1 - b0
             norm = float(nx + ny)
             rm = rowmins[c]  # per distinct query code: its cheapest code in this candidate
-            acc = 0.0
-            for p in range(nruns - 1, -1, -1):
-                rest_run[p] = acc * safety
-                acc += rm[qrd[r0 + p]] * qrl[r0 + p]
+            if not use_range:  # the envelope of the rows still to come, per run
+                acc = 0.0
+                for p in range(nruns - 1, -1, -1):
+                    rest_run[p] = acc * safety
+                    acc += rm[qrd[r0 + p]] * qrl[r0 + p]
             kyc = lro[c + 1] - lro[c]
             rest2 = rest2_buf[:nruns * kyc].reshape((nruns, kyc))
             if use_range:
@@ -505,15 +506,17 @@ if HAVE_NUMBA:
                 for p in range(nruns):
                     for q in range(kyc):
                         rest2[p, q] = rest_run[p]
-            # the envelope of the columns still to come, per frame (only survivors need it)
-            acc = 0.0
-            j = ny - 1
-            for p in range(lro[c + 1] - lro[c] - 1, -1, -1):
-                per = colmin[lrv_v[lro[c] + p]]  # the run's cheapest query code
-                for s in range(lrl[lro[c] + p]):
-                    rest_col[j] = acc * safety
-                    acc += per
-                    j -= 1
+            if not (use_rle == 2 and band < 0):
+                # the envelope of the columns still to come, per frame (for the frame-level
+                # corridors; only survivors need it)
+                acc = 0.0
+                j = ny - 1
+                for p in range(lro[c + 1] - lro[c] - 1, -1, -1):
+                    per = colmin[lrv_v[lro[c] + p]]  # the run's cheapest query code
+                    for s in range(lrl[lro[c] + p]):
+                        rest_col[j] = acc * safety
+                        acc += per
+                        j -= 1
             if use_rle == 2 and band < 0:
                 raw = _runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
                                     F, absdiff, shift, mask, rest_run, thr, norm, row_prev, row_next)
