@@ -13,7 +13,7 @@ Board frame (shared by every module in ``ar/``): the origin is the top-left oute
 of the pattern as printed (page upright), +x runs to the right along the first row,
 +y runs down the page, and therefore +z = x cross y points *into* the table. "Up off
 the table" is -z. (This is OpenCV's own object-point convention; see
-:mod:`ar.projector_view` for the Y-up scene frame used for 3-D content.)
+:mod:`ar.render.projector_view` for the Y-up scene frame used for 3-D content.)
 
 A board knows its pattern extent (``pattern_size_m``) and the white paper margin around
 it; :meth:`Board.texture` draws the whole sheet at a chosen pixels-per-metre so the

@@ -17,7 +17,7 @@ import numpy as np
 
 from ar.boards import Board
 from ar.geometry import pixels_to_plane, project_points
-from ar.projector_view import ProjectorRenderer, add_dots, board_to_scene_points, projector_from_scene
+from ar.render.projector_view import ProjectorRenderer, add_dots, board_to_scene_points, projector_from_scene
 
 
 def default_dot_points(board: Board, spacing_m: float = 0.06, n: int = 3) -> np.ndarray:

@@ -34,3 +34,7 @@ class DatasetError(StoryBeamError):
 
 class IndexFormatError(StoryBeamError):
     """A saved retrieval index cannot be read."""
+
+
+class QuantizerError(StoryBeamError):
+    """A quantiser cannot be fitted or applied (too few frames, wrong feature width)."""

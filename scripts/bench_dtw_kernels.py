@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from retrieval.dtw import dtw_codes, dtw_features
-from retrieval.quantize import Quantizer
+from retrieval.codes import Quantizer
 
 
 def timed(fn, repeat: int) -> float:

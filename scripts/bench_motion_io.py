@@ -9,7 +9,7 @@ import csv
 import time
 from pathlib import Path
 
-from retrieval.motion_io import clear_skeleton_cache, load_motion
+from retrieval.motion.formats import clear_skeleton_cache, load_motion
 
 
 def main() -> int:

@@ -7,15 +7,15 @@ from __future__ import annotations
 
 import sys
 
-from retrieval.bench_retrieval import FastMatcher
-from retrieval.dataset import load_dataset
-from retrieval.evaluation import evaluate, make_matcher
+from app.bench.retrieval import FastMatcher
+from retrieval.library import load_dataset
+from retrieval.experiment import evaluate, make_matcher
 
 
 def main() -> None:
     folder = sys.argv[1] if len(sys.argv) > 1 else "assets/motions"
     fps = float(sys.argv[2]) if len(sys.argv) > 2 else 30.0
-    clips = load_dataset(folder, fps=fps, progress=False)
+    clips = load_dataset(folder, fps=fps)
 
     def factory(name, **kw):
         if name.startswith("fast_numpy"):
@@ -32,7 +32,7 @@ def main() -> None:
         kw["backend"] = "numpy"
         return make_matcher(name, **kw)
 
-    res = evaluate(clips, ["fast_numpy", "fast_numpy_no_range", "quantized"], 3, 6, 0, progress=False,
+    res = evaluate(clips, ["fast_numpy", "fast_numpy_no_range", "quantized"], 3, 6, 0,
                    matcher_factory=factory)
     print(f"{len(clips)} clips from {folder} at {fps:g} fps, numpy back-end for all")
     for name, r in res.items():

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from retrieval.body import canonical_joint_map
-from retrieval.kinematics import global_transforms, positions
-from retrieval.motion_io import load_motion
+from retrieval.motion import canonical_joint_map
+from retrieval.motion import global_transforms, positions
+from retrieval.motion.formats import load_motion
 
 
 def main() -> int:

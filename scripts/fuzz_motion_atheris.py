@@ -27,8 +27,8 @@ sys.path.insert(0, str(REPO))
 # The loaders must be imported here, inside the context, to be instrumented
 # (retrieval.fuzz imports them lazily).
 with atheris.instrument_imports(include=["retrieval"]):
-    from retrieval import acclaim, bvh, kinematics, motion, rotations, textfile  # noqa: F401
-    from retrieval import fuzz
+    from retrieval import textfile  # noqa: F401
+    from app.stress import fuzz_motion as fuzz
     from retrieval.errors import MotionFormatError
 
 logging.getLogger("retrieval").setLevel(logging.ERROR)

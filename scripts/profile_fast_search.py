@@ -16,13 +16,13 @@ import time
 
 import numpy as np
 
-from retrieval.bench_retrieval import load_clips
-from retrieval.compact_table import DiffTable
-from retrieval.dtw import numba
-from retrieval.evaluation import stratified_folds
-from retrieval.fast_search import FastSearcher, PackedCodes, SearchStats, _lbs_serial, _query_rows, _refine, warm_up
-from retrieval.matchers import stack_frames
-from retrieval.quantize import Quantizer
+from app.bench.retrieval import load_clips
+from retrieval.codes import DiffTable
+from retrieval.dtw.kernels import numba
+from retrieval.experiment import stratified_folds
+from retrieval.search.fast import FastSearcher, PackedCodes, SearchStats, _lbs_serial, _query_rows, _refine, warm_up
+from retrieval.experiment import stack_frames
+from retrieval.codes import Quantizer
 
 
 def fold_codes(fps: float) -> list[dict]:

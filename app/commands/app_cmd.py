@@ -69,7 +69,7 @@ def _parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.storage import ProfileStore, StorageError, default_profile_path
+    from app.story.storage import ProfileStore, StorageError, default_profile_path
 
     width, height = _parse_size(args.size)
     db = Path(args.db) if args.db else default_profile_path()
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
                                       and importlib.util.find_spec("pyrender") is not None)
     factory = None
     if use_3d:  # the Play preview and the projector stage, on one render thread
-        from app.stage import app_renderer_factory
+        from app.scene.stage import app_renderer_factory
         factory = app_renderer_factory(db.parent)
     app = _LaunchedApp(db, lang=args.lang, story_id=args.story, demo=demo, start_screen=screen,
                        renderer_factory=factory)

@@ -29,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
     from tqdm import tqdm
 
-    from ar.bench import BenchConfig, default_conditions, format_table, run_bench
+    from app.bench.ar import BenchConfig, default_conditions, format_table, run_bench
     from ar.boards import DEFAULT_BOARD_SPEC, Board
     from retrieval.errors import StoryBeamError
 

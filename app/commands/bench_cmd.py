@@ -1,7 +1,7 @@
 """`storybeam bench TARGET`: benchmarks, one sub-target each.
 
 ``storybeam bench retrieval [--json OUT] [--quick]`` runs the retrieval speed benchmark
-(:mod:`retrieval.bench_retrieval`): the paper protocol for the fast search, the seed's
+(:mod:`app.bench.retrieval`): the paper protocol for the fast search, the seed's
 method, exact DTW and dtaidistance side by side, the ablations, 1-NN latency over a
 CMU-sized derived library, and memory. Other targets join by adding an entry to
 :data:`TARGETS`.
@@ -29,7 +29,7 @@ def _add_retrieval(sub) -> None:
 
 
 def _run_retrieval(args) -> int:
-    from retrieval.bench_retrieval import format_report, run_retrieval_bench
+    from app.bench.retrieval import format_report, run_retrieval_bench
 
     out = run_retrieval_bench(args.data, fps=args.fps, scale_fps=args.scale_fps, quick=args.quick, dims=args.dims,
                               plot=args.plot, progress=not args.quiet)

@@ -25,7 +25,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.animation_demo import DemoConfig, run_demo
+    from app.scene.demo_pipeline import DemoConfig, run_demo
     from app.commands.render_cmd import parse_size
 
     w, h = parse_size(args.size)

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 from app.commands.output import write_json_report
+from app.progress import progress_bar
 from retrieval.errors import StoryBeamError
 
 
@@ -69,8 +71,8 @@ def format_table(results: dict, n_clips: int, seconds: float) -> str:
 
 
 def run(args) -> int:
-    from retrieval.dataset import load_dataset, read_labels
-    from retrieval.evaluation import METHODS, evaluate, plot_sweep, stratified_subset, sweep_dims
+    from retrieval.library import load_dataset, read_labels
+    from retrieval.experiment import METHODS, evaluate, plot_sweep, stratified_subset, sweep_dims
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in METHODS]
@@ -81,13 +83,14 @@ def run(args) -> int:
     sweep = parse_range(args.sweep_dims) if args.sweep_dims else None
     started = time.perf_counter()
     rows = read_labels(args.data)
-    clips = load_dataset(args.data, fps=args.fps, cache=not args.no_cache, progress=not args.quiet, rows=rows)
+    clips = load_dataset(args.data, fps=args.fps, cache=not args.no_cache, rows=rows, pose="forbes" in methods,
+                         progress=progress_bar(f"loading {Path(args.data).name}", "clip", not args.quiet))
     load_seconds = time.perf_counter() - started
     if args.subset:
         clips = stratified_subset(clips, args.subset, args.seed)
     motion_seconds = sum(c.seconds for c in clips)
     res = evaluate(clips, methods, args.folds, args.dims, args.seed, args.band, args.forbes_clusters,
-                   progress=not args.quiet, backend=args.backend)
+                   progress=progress_bar("evaluating", "fold", not args.quiet), backend=args.backend)
     out = {
         "n_clips": len(clips),
         "total_seconds": motion_seconds,
@@ -112,7 +115,8 @@ def run(args) -> int:
             out[f"dtw_over_{key}_search_cpu_time"] = cpu_ratio
             print(f"exact DTW search / {q} search: {ratio:.1f}x wall, {cpu_ratio:.1f}x CPU")
     if sweep:
-        out["sweep"] = sweep_dims(clips, sweep, args.folds, args.seed, args.band, progress=not args.quiet,
+        out["sweep"] = sweep_dims(clips, sweep, args.folds, args.seed, args.band,
+                                  progress=progress_bar("sweeping n", "n", not args.quiet),
                                   backend=args.backend)
         print("\n  n  accuracy  balanced  search(s)  cum.contrib  table")
         for r in out["sweep"]:

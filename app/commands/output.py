@@ -12,3 +12,4 @@ def write_json_report(path: str | Path, report: dict, indent: int = 1) -> Path:
     path.write_text(json.dumps(report, indent=indent))
     print(f"wrote {path}")
     return path
+

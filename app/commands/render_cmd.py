@@ -37,7 +37,7 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.animation_demo import DemoConfig, run_demo
+    from app.scene.demo_pipeline import DemoConfig, run_demo
     from retrieval.errors import StoryBeamError
 
     if not args.demo:

@@ -29,7 +29,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from retrieval.index import MotionIndex
+    from retrieval.library import MotionIndex
 
     data = Path(args.data)
     if args.top < 1:
@@ -40,7 +40,7 @@ def run(args) -> int:
     if not query_path.is_file():
         raise StoryBeamError(f"--query {query_path}: not found")
     try:
-        from retrieval.motion_io import load_motion
+        from retrieval.motion.formats import load_motion
     except ImportError as exc:
         raise StoryBeamError(f"motion loaders unavailable: {exc}") from None
     index = MotionIndex.load(data) if MotionIndex.is_index(data) else MotionIndex.build(data, args.dims, args.fps)

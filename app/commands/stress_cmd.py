@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
 def _run_fuzz(args, work: Path) -> dict:
     from tqdm import tqdm
 
-    from retrieval import fuzz
+    from app.stress import fuzz_motion as fuzz
 
     repo = Path(__file__).resolve().parents[2]
     cmu = repo.parent / "shared" / "data" / "cmu"
@@ -115,7 +115,7 @@ def _run_packages(args, work: Path) -> dict:
 
 
 def _run_tracking(args, work: Path) -> dict:
-    from ar.stress import run_tracking_campaign
+    from app.stress.tracking import run_tracking_campaign
 
     return run_tracking_campaign(frames=args.frames, seed=args.seed)
 

@@ -3,7 +3,7 @@ and a full disk.
 
 Contracts checked (each violation is counted as a crash with its traceback tail):
 
-* **Databases** (:class:`app.storage.ProfileStore`): a truncated, bit-flipped, zeroed or
+* **Databases** (:class:`app.story.storage.ProfileStore`): a truncated, bit-flipped, zeroed or
   foreign file opens and reads fine or raises :class:`StorageError`; the good original
   it was copied from is never touched.
 * **Story packages** (:meth:`ProfileStore.import_package`): every malformed, oversized,
@@ -38,8 +38,8 @@ import zipfile
 from pathlib import Path
 from typing import Callable, Iterator
 
-from app.storage import (MAX_ENTRY_BYTES, MAX_PACKAGE_ENTRIES, PACKAGE_FORMAT_NAME, ProfileStore, StorageError)
-from app.story import Character, Mark, Story
+from app.story.storage import (MAX_ENTRY_BYTES, MAX_PACKAGE_ENTRIES, PACKAGE_FORMAT_NAME, ProfileStore, StorageError)
+from app.story.model import Character, Mark, Story
 
 # ----------------------------------------------------------------------------- shared helpers
 

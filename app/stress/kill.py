@@ -1,7 +1,7 @@
 """Crash-safety of story saves: SIGKILL the storage process at random moments, then check
 that every story reopens and equals its last acknowledged state (or the one in flight).
 
-A forked child runs the app's real storage code (:class:`app.storage.ProfileStore`) in a
+A forked child runs the app's real storage code (:class:`app.story.storage.ProfileStore`) in a
 loop of autosaves, deletes and close/reopen cycles (a close checkpoints the WAL into the
 main file, another moment worth killing). Before each write it sends the parent an
 *intent* line with the full story JSON, and after the call returns an *ack* line, over a
@@ -29,8 +29,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from app.storage import ProfileStore, StorageError
-from app.story import Character, Mark, MotionChoice, Story
+from app.story.storage import ProfileStore, StorageError
+from app.story.model import Character, Mark, MotionChoice, Story
 
 #: Stories the child edits (a class of children sharing one tablet).
 N_STORIES = 6

@@ -107,8 +107,8 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
     from kivy.uix.behaviors import ButtonBehavior
     from kivy.uix.modalview import ModalView
 
-    from app.services import MotionCatalog
-    from app.storage import ProfileStore, StorageError
+    from app.services.catalog import MotionCatalog
+    from app.story.storage import ProfileStore, StorageError
     from app.ui.app import StoryBeamApp
 
     out.mkdir(parents=True, exist_ok=True)

@@ -17,11 +17,11 @@ from kivy.uix.boxlayout import BoxLayout
 from kivy.uix.modalview import ModalView
 from kivy.uix.screenmanager import NoTransition, ScreenManager
 
-from app.demo import demo_story
-from app.editing import StoryEditor
-from app.services import MotionCatalog
-from app.storage import ProfileStore, StorageError
-from app.story import Story
+from app.story.demo_story import demo_story
+from app.story.editing import StoryEditor
+from app.services.catalog import MotionCatalog
+from app.story.storage import ProfileStore, StorageError
+from app.story.model import Story
 from app.ui.editor import EditorScreen
 from app.ui.home import HomeScreen
 from app.ui.play import PlayScreen, ProjectorScreen
@@ -103,10 +103,10 @@ class StoryBeamApp(App):
         saved_lang = self.store.get_setting("language")
         self.lang = self.requested_lang or (saved_lang if saved_lang in LANGUAGES else "ja")
         if self.renderer_factory is not None:
-            from app.render_bridge import RenderThread
+            from app.scene.render_thread import RenderThread
             self.renderer = RenderThread(self.renderer_factory,
                                          lambda cb, frame: Clock.schedule_once(lambda dt: cb(frame), 0))
-        from app import video_export
+        from app.scene import video_export
         if video_export.available() is None:
             self.video_exporter = video_export.app_exporter(self.video_view)
         self.sm = ScreenManager(transition=NoTransition())
@@ -229,27 +229,27 @@ class StoryBeamApp(App):
     def request_frame(self, scene, t: float, callback) -> None:
         """Ask the 3-D renderer (if any) for a frame; the 2-D preview is always drawn."""
         if self.renderer is not None and self.renderer.alive:
-            from app.story import Scene
+            from app.story.model import Scene
             self.renderer.request(Scene.from_dict(scene.to_dict()), t, callback)  # a copy: the UI owns the original
 
     def motion_thumbnails(self):
         """The stick-figure thumbnails of the motion library (made on first use)."""
         if getattr(self, "_thumbnails", None) is None:
-            from app.motion_thumbs import ThumbnailCache
+            from app.services.thumbnails import ThumbnailCache
             self._thumbnails = ThumbnailCache(self.catalog.motions_dir)
         return self._thumbnails
 
     def stage_available(self) -> bool:
-        """True when the render thread can draw the projector stage (:mod:`app.stage`):
+        """True when the render thread can draw the projector stage (:mod:`app.scene.stage`):
         its renderer factory says so (``supports_stage``) and it has not failed."""
         return (self.renderer is not None and self.renderer.alive
                 and bool(getattr(self.renderer_factory, "supports_stage", False)))
 
     def request_stage_frame(self, scene, t: float, view: str, callback) -> None:
-        """Ask the render thread for a projector-stage frame (:class:`app.stage.StageFrame`)."""
+        """Ask the render thread for a projector-stage frame (:class:`app.scene.stage.StageFrame`)."""
         if self.renderer is not None and self.renderer.alive:
-            from app.stage import StageJob
-            from app.story import Scene
+            from app.scene.stage import StageJob
+            from app.story.model import Scene
             self.renderer.request(StageJob(Scene.from_dict(scene.to_dict()), view), t, callback)
 
 

@@ -1,5 +1,5 @@
 """Big "more like this" tiles that show the motion itself: an animated stick figure
-(:mod:`app.motion_thumbs`) drawn with a few Kivy lines, cycling through its poses, so a
+(:mod:`app.services.thumbnails`) drawn with a few Kivy lines, cycling through its poses, so a
 child who cannot read the clip's name picks by looking. Until the figure is ready (or
 when the clip cannot be read) the tile shows the motion's icon."""
 from __future__ import annotations
@@ -11,7 +11,7 @@ from kivy.graphics import Color, Ellipse, Line
 from kivy.metrics import dp
 from kivy.uix.widget import Widget
 
-from app.motion_thumbs import BONES, HEAD, StickFrames, ThumbnailCache
+from app.services.thumbnails import BONES, HEAD, StickFrames, ThumbnailCache
 from app.ui.widgets import IconButton
 
 POSES_PER_SECOND = 6.0

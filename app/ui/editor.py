@@ -15,8 +15,8 @@ from kivy.uix.screenmanager import Screen
 from kivy.uix.scrollview import ScrollView
 from kivy.uix.widget import Widget
 
-from app.gestures import find_spins, hop_time
-from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES
+from app.story.gestures import find_spins, hop_time
+from app.story.model import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES
 from retrieval.errors import StoryBeamError
 from app.ui.art import MOTION_COLOURS, draw_background, draw_character_badge
 from app.ui.clip_tiles import ClipTile

@@ -3,7 +3,7 @@
 The picker lists the ``.zip`` files in the places a teacher is likely to put one
 (:func:`package_folders`): the profile's inbox, an ``import`` folder beside the profile,
 and the device's downloads folder. One big tile per package; a tap imports it through
-:meth:`app.storage.ProfileStore.import_package`, which validates the whole package before
+:meth:`app.story.storage.ProfileStore.import_package`, which validates the whole package before
 writing anything -- a bad package is refused with the storage layer's message and the
 profile is left as it was.
 """
@@ -20,7 +20,7 @@ from kivy.uix.label import Label
 from kivy.uix.modalview import ModalView
 from kivy.uix.scrollview import ScrollView
 
-from app.storage import StorageError
+from app.story.storage import StorageError
 from app.ui.widgets import IconButton, big_label, filled
 
 MAX_LISTED = 60  # a downloads folder can be big; the newest packages are listed first

@@ -1,11 +1,11 @@
 """Play: preview the scene or the whole story with a scrubber, and the projector output.
 
 The preview is the top-down animation of each character along its path. When a 3-D
-renderer is available, frames come from :class:`app.render_bridge.RenderThread` (pyrender
+renderer is available, frames come from :class:`app.scene.render_thread.RenderThread` (pyrender
 must render on its own long-lived thread; two GL contexts on the Kivy thread crash) and
 are shown as a texture in the same view.
 
-The projector screen shows :mod:`app.stage`: the scene's 3-D characters rendered from the
+The projector screen shows :mod:`app.scene.stage`: the scene's 3-D characters rendered from the
 projector's viewpoint through the tracked rig (a live camera with the profile's
 calibration files, else the synthetic rig), with the tracking state in a corner;
 *Preview* switches to the camera view (the light on the table, what the audience sees).
@@ -25,7 +25,7 @@ from kivy.uix.screenmanager import Screen
 from kivy.uix.slider import Slider
 from kivy.uix.widget import Widget
 
-from app.story import Story
+from app.story.model import Story
 from app.ui.table_view import TableView
 from app.ui.widgets import BUTTON_DP, IconButton, filled
 
@@ -260,7 +260,7 @@ class ProjectorScreen(_PlayerScreen):
         app.request_stage_frame(scene, local_t, self.stage_view, self._show_stage)
 
     def _show_stage(self, frame) -> None:
-        """A :class:`app.stage.StageFrame` from the render thread (on the UI thread)."""
+        """A :class:`app.scene.stage.StageFrame` from the render thread (on the UI thread)."""
         if self.manager is None or self.manager.current != self.name:
             return
         app = App.get_running_app()

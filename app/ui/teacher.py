@@ -20,8 +20,8 @@ from kivy.uix.scrollview import ScrollView
 from kivy.uix.textinput import TextInput
 from kivy.uix.widget import Widget
 
-from app.calibration_flow import CalibrationWizard
-from app.storage import StorageError
+from app.services.calibration_wizard import CalibrationWizard
+from app.story.storage import StorageError
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
 
@@ -234,7 +234,7 @@ class TeacherScreen(Screen):
         self.import_picker.open()
 
     def export_videos(self) -> None:
-        """Write one MP4 per story (:func:`app.video_export.app_exporter`: the 3-D
+        """Write one MP4 per story (:func:`app.scene.video_export.app_exporter`: the 3-D
         characters as the audience sees them, in a child process; 2-D when 3-D rendering
         is unavailable, which the status line and the log say) on a worker thread, with
         per-story frame progress."""

@@ -1,0 +1,229 @@
+"""The AR bench: tracking accuracy, jitter, landing error and timing on synthetic frames.
+
+For each named condition a handheld trajectory is rendered by the synthetic camera;
+every frame goes through the real chain -- detection, IPPE pose, One-Euro tracker,
+projector render -- and is compared with the ground truth.
+
+The chain uses *estimated* calibrations by default (camera calibrated from 12
+synthetic views, projector calibrated with the guided sequence on the synthetic rig),
+so the landing error includes calibration error, as it would on a real rig.
+
+Definitions
+    rotation / translation error: angle of ``R_est^T R_true`` (deg); distance between
+    estimated and true board origin in camera coordinates (mm); on raw (unfiltered)
+    per-frame poses.
+    jitter: RMS of the frame-to-frame *change of the error* (consecutive tracked
+    frames); true motion cancels, so this is the shake a viewer would see.
+    landing error: see :mod:`ar.closed_loop`; measured every ``landing_every`` frames
+    with the filtered pose.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ar.boards import Board, DEFAULT_BOARD_SPEC
+from ar.calibration import (CameraCalibration, ProjectorCalibration, ProjectorCalibrationSequence,
+                            calibrate_camera, calibrate_projector, extract_projector_view, extrinsics_error)
+from ar.closed_loop import LandingCheck
+from ar.filtering import TRACKING, PoseKalmanFilter, PoseOneEuroFilter, PoseTracker
+from ar.geometry import pose_error, rotation_angle_deg
+from ar.pose import estimate_board_pose
+from ar.synthetic import (Degradation, SyntheticCamera, TrajectoryConfig, calibration_poses,
+                          capture_projector_sequence, handheld_trajectory)
+
+
+@dataclass
+class Condition:
+    name: str
+    trajectory: TrajectoryConfig
+    degradation: Degradation
+    description: str
+
+
+def default_conditions(blur_sigma: float = 1.5) -> list[Condition]:
+    """The bench's named conditions (clean = 0.5 m, 25 degree tilt, only 1-level read noise)."""
+    def traj(**kw):
+        return TrajectoryConfig(**kw)
+
+    return [
+        Condition("clean", traj(), Degradation(), "0.5 m, 25 deg tilt, read noise sigma 1"),
+        Condition("noise", traj(), Degradation(noise_sigma=8.0), "read noise sigma 8 grey levels"),
+        Condition("blur", traj(), Degradation(blur_sigma=blur_sigma), f"Gaussian blur sigma {blur_sigma:g} px"),
+        Condition("low_light", traj(), Degradation(exposure=0.15, noise_sigma=2.0, shot_noise=1.0, gradient=0.5),
+                  "15 % exposure, shot + read noise, 50 % light fall-off across the frame"),
+        Condition("occlusion_30", traj(), Degradation(occlusion=0.30), "hand-like blob over 30 % of the board"),
+        Condition("steep_60", traj(tilt_deg=60.0), Degradation(), "60 deg from vertical"),
+        Condition("near_0.3m", traj(distance_m=0.3), Degradation(), "0.3 m"),
+        Condition("far_1.0m", traj(distance_m=1.0), Degradation(), "1.0 m"),
+    ]
+
+
+@dataclass
+class BenchConfig:
+    frames: int = 100
+    board_spec: str = DEFAULT_BOARD_SPEC
+    landing_every: int = 5
+    estimated_calibration: bool = True
+    seed: int = 0
+    pose_filter: str = "kalman"  # or "one-euro"
+    conditions: list[Condition] = field(default_factory=default_conditions)
+
+
+def _jitter(errs_T: list[tuple[np.ndarray, np.ndarray] | None]) -> tuple[float, float]:
+    """RMS frame-to-frame change of the pose error: (deg, mm)."""
+    rot, trans = [], []
+    for a, b in zip(errs_T[:-1], errs_T[1:]):
+        if a is None or b is None:
+            continue
+        (Ta, Tta), (Tb, Ttb) = a, b
+        Ea = Ta[:3, :3] @ Tta[:3, :3].T
+        Eb = Tb[:3, :3] @ Ttb[:3, :3].T
+        rot.append(rotation_angle_deg(Eb @ Ea.T))
+        trans.append(np.linalg.norm((Tb[:3, 3] - Ttb[:3, 3]) - (Ta[:3, 3] - Tta[:3, 3])) * 1000)
+    if not rot:
+        return float("nan"), float("nan")
+    return float(np.sqrt(np.mean(np.square(rot)))), float(np.sqrt(np.mean(np.square(trans))))
+
+
+def _stat(values: list[float], q: float) -> float:
+    v = np.asarray([x for x in values if np.isfinite(x)], np.float64)
+    return float(np.percentile(v, q)) if len(v) else float("nan")
+
+
+def calibrate_rig(cam: SyntheticCamera, board: Board) -> tuple[CameraCalibration, ProjectorCalibration, dict]:
+    """Calibrate the synthetic rig as a user would (camera views, then the projector sequence)."""
+    views = [(f"view_{i:02d}", cam.render(T)) for i, T in enumerate(calibration_poses(board, 12))]
+    camera = calibrate_camera(views, board)
+    captures = capture_projector_sequence(cam, ProjectorCalibrationSequence(board))
+    data, rejected = [], {}
+    for step, _T, pattern, frames in captures:
+        r = extract_projector_view(f"step_{step.index:02d}", frames, board, camera, pattern)
+        if isinstance(r, str):
+            rejected[f"step_{step.index:02d}"] = r
+        else:
+            data.append(r)
+    projector = calibrate_projector(data, camera, cam.projector.size, rejected)
+    rot, trans = extrinsics_error(projector, cam.proj_from_cam)
+    report = {"camera_rms_px": camera.rms,
+              "camera_fx_error_pct": float(100 * (camera.camera_matrix[0, 0] / cam.camera.K[0, 0] - 1)),
+              "projector_rms_px": projector.rms,
+              "projector_fx_error_pct": float(100 * (projector.camera_matrix[0, 0] / cam.projector.K[0, 0] - 1)),
+              "extrinsics_rot_err_deg": rot, "extrinsics_trans_err_mm": trans}
+    return camera, projector, report
+
+
+def run_bench(cfg: BenchConfig, progress=None, examples: dict | None = None) -> dict:
+    """Run every condition; returns the JSON-ready result. ``progress(n)`` advances a bar by n frames.
+
+    ``examples``, when a dict, receives per-condition example images (camera view with
+    axes, projector view, camera view with the projection) from the middle frame.
+    """
+    from ar.pose import draw_pose
+    from ar.render.projector_view import ProjectorRenderer, add_test_scene
+
+    board = Board(cfg.board_spec)
+    cam = SyntheticCamera(board)
+    if cfg.estimated_calibration:
+        camera, projector, calib_report = calibrate_rig(cam, board)
+        K, dist = camera.camera_matrix, camera.dist_coeffs
+        Kp, T_pc = projector.camera_matrix, projector.T_proj_from_cam
+    else:
+        K, dist = cam.camera.K, cam.camera.dist
+        Kp, T_pc = cam.projector.K, cam.proj_from_cam
+        calib_report = {"note": "true calibration used"}
+    P = cam.projector
+    renderer = ProjectorRenderer(P.width, P.height, Kp)
+    landing = LandingCheck(renderer, board)
+    out: dict = {"conditions": {}, "calibration": calib_report, "board": str(board.spec), "pose_filter": cfg.pose_filter,
+                 "camera": {"size": list(cam.camera.size), "fx": float(cam.camera.K[0, 0])},
+                 "frames_per_condition": cfg.frames}
+    all_detect_ms, all_render_ms, clean_landing = [], [], []
+    rng = np.random.default_rng(cfg.seed)
+    for cond in cfg.conditions:
+        traj = TrajectoryConfig(**{**cond.trajectory.__dict__, "seed": cfg.seed})
+        poses = handheld_trajectory(board, cfg.frames, traj)
+        raw_tracker = PoseTracker(filter_enabled=False)
+        tracker = PoseTracker(pose_filter=PoseOneEuroFilter() if cfg.pose_filter == "one-euro" else PoseKalmanFilter())
+        rot_e, trans_e, frot_e, ftrans_e, detect_ms, render_ms, land = [], [], [], [], [], [], []
+        raw_pairs, filt_pairs = [], []
+        detected = 0
+        states = {"tracking": 0, "holding": 0, "lost": 0}
+        for i, T_true in enumerate(poses):
+            frame = cam.render(T_true, degradation=cond.degradation, rng=rng)
+            t0 = time.perf_counter()
+            est = estimate_board_pose(frame, board, K, dist)
+            detect_ms.append((time.perf_counter() - t0) * 1000)
+            ts = i / traj.fps
+            raw = raw_tracker.update(est, ts)
+            filt = tracker.update(est, ts)
+            states[filt.state] += 1
+            if est is not None:
+                detected += 1
+                r, t = pose_error(est.T_cam_from_board, T_true)
+                rot_e.append(r)
+                trans_e.append(t)
+            raw_pairs.append((raw.T_cam_from_board, T_true) if raw.state == TRACKING else None)
+            filt_pairs.append((filt.T_cam_from_board, T_true) if filt.state == TRACKING else None)
+            if filt.state == TRACKING:
+                fr, ft = pose_error(filt.T_cam_from_board, T_true)
+                frot_e.append(fr)
+                ftrans_e.append(ft)
+            if filt.T_cam_from_board is not None and i % cfg.landing_every == 0:
+                res = landing.measure(filt.T_cam_from_board, T_pc, P.K, P.dist, cam.proj_from_cam @ T_true)
+                render_ms.append(res.render_ms)
+                land.extend(res.errors_mm.tolist())
+            if examples is not None and i == cfg.frames // 2:
+                examples[cond.name] = {"camera_axes": draw_pose(frame, est, K, dist)}
+                if cond.name == "clean" and filt.T_cam_from_board is not None:
+                    renderer.remove("landing_dots")
+                    add_test_scene(renderer, board)
+                    renderer.set_board_pose(filt.T_cam_from_board, T_pc, board)
+                    proj_img = renderer.render()
+                    for name in ("axis_x", "axis_y", "axis_z", "cube", "grid"):
+                        renderer.remove(name)
+                    landing = LandingCheck(renderer, board)
+                    examples[cond.name]["projector_view"] = proj_img
+                    examples[cond.name]["camera_with_projection"] = cam.render(T_true, proj_img)
+            if progress:
+                progress(1)
+        jr, jt = _jitter(raw_pairs)
+        fjr, fjt = _jitter(filt_pairs)
+        n = len(poses)
+        out["conditions"][cond.name] = {
+            "description": cond.description,
+            "detect_rate": detected / n,
+            "rot_err_deg_median": _stat(rot_e, 50), "trans_err_mm_median": _stat(trans_e, 50),
+            "rot_err_deg_p95": _stat(rot_e, 95), "trans_err_mm_p95": _stat(trans_e, 95),
+            "filtered_rot_err_deg_median": _stat(frot_e, 50), "filtered_trans_err_mm_median": _stat(ftrans_e, 50),
+            "jitter_raw_deg": jr, "jitter_raw_mm": jt, "jitter_filtered_deg": fjr, "jitter_filtered_mm": fjt,
+            "landing_error_mm_median": _stat(land, 50), "landing_error_mm_p95": _stat(land, 95),
+            "tracker_states": states,
+            "detect_pose_ms_median": _stat(detect_ms, 50), "render_ms_median": _stat(render_ms, 50),
+        }
+        all_detect_ms += detect_ms
+        all_render_ms += render_ms
+        if cond.name == "clean":
+            clean_landing = land
+    renderer.close()
+    out["landing_error_mm_median"] = _stat(clean_landing, 50)
+    out["detect_pose_ms_median"] = _stat(all_detect_ms, 50)
+    out["render_ms_median"] = _stat(all_render_ms, 50)
+    return out
+
+
+def format_table(result: dict) -> str:
+    """Markdown table of a bench result."""
+    head = ("| condition | detect | rot med / p95 (deg) | trans med / p95 (mm) | jitter raw -> filtered (deg, mm) "
+            "| landing med / p95 (mm) | detect+pose ms | render ms |")
+    lines = [head, "|" + "---|" * 8]
+    for name, c in result["conditions"].items():
+        lines.append(
+            f"| {name} | {100 * c['detect_rate']:.0f} % | {c['rot_err_deg_median']:.3f} / {c['rot_err_deg_p95']:.3f} "
+            f"| {c['trans_err_mm_median']:.2f} / {c['trans_err_mm_p95']:.2f} "
+            f"| {c['jitter_raw_deg']:.3f} -> {c['jitter_filtered_deg']:.3f}, {c['jitter_raw_mm']:.2f} -> {c['jitter_filtered_mm']:.2f} "
+            f"| {c['landing_error_mm_median']:.2f} / {c['landing_error_mm_p95']:.2f} "
+            f"| {c['detect_pose_ms_median']:.1f} | {c['render_ms_median']:.1f} |")
+    return "\n".join(lines)

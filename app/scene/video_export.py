@@ -1,0 +1,306 @@
+"""Teacher export: one MP4 per story, the 3-D characters walking their sketched paths
+with their chosen motions, scene after scene.
+
+Views (``view``):
+
+* ``camera`` (default) -- what an audience sees on the table: the projector stage
+  (:class:`app.scene.stage.StageRenderer`) through the synthetic rig, its camera frame with
+  the projected characters on the board;
+* ``overhead`` -- the Play preview's view of the whole table from the child's side
+  (:class:`app.scene.preview.ScenePreviewRenderer`);
+* ``projector`` -- the projector's own image (black = no light).
+
+3-D frames need OpenGL (pyrender, EGL). The app runs the export in a child process
+(:func:`export_in_subprocess`): a GL context of its own, beside the Kivy window's, and
+the UI thread stays free. When 3-D rendering is unavailable (no pyrender, no GL, a
+failing first frame) the export falls back to the top-down 2-D animation drawn with
+Pillow and says so in the result (the teacher screen and the log show it). Encoding is
+imageio-ffmpeg; without ffmpeg, :func:`available` says why.
+
+    python -m app.video_export STORY.json OUT.mp4 [--view camera|overhead|projector|2d] [--fps 15]
+"""
+from __future__ import annotations
+
+import argparse
+import atexit
+import json
+import logging
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+
+from app.story.model import TABLE_DEPTH_M, TABLE_WIDTH_M, Story
+from retrieval.errors import StoryBeamError
+
+# RGB 0..255, mirrors app/ui/art.py (kept separate: that module needs Kivy)
+_BACKGROUNDS = {"sky": (158, 214, 250), "grass": (140, 204, 107), "night": (26, 33, 82), "sea": (51, 128, 204),
+                "castle": (237, 219, 184), "forest": (77, 140, 77), "space": (15, 10, 36), "sand": (245, 214, 140)}
+_CHARACTERS = {"robot": (115, 140, 191), "animal": (242, 153, 64), "child": (242, 128, 166)}
+
+
+VIEWS = ("camera", "overhead", "projector", "2d")
+log = logging.getLogger(__name__)
+
+
+class VideoExportError(StoryBeamError):
+    """A story video could not be written."""
+
+
+@dataclass
+class ExportResult:
+    """Where the video went and how it was drawn (``mode``: the view, or ``2d``)."""
+
+    path: Path
+    mode: str
+    frames: int
+    note: str = ""  # why the 2-D fallback was used
+
+    def __str__(self) -> str:
+        return f"{self.path} ({self.mode}, {self.frames} frames{'; ' + self.note if self.note else ''})"
+
+
+def available() -> str | None:
+    """None when MP4 export works here, else the reason it does not."""
+    try:
+        import imageio.v2  # noqa: F401
+        import imageio_ffmpeg
+        imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError) as exc:
+        return f"no ffmpeg ({exc})"
+    return None
+
+
+def frame_count(story: Story, fps: float) -> int:
+    return sum(max(1, int(round(scene.duration * fps))) for scene in story.scenes)
+
+
+def story_frames(story: Story, fps: float = 15.0, size: tuple[int, int] = (640, 426)):
+    """Yield top-down 2-D RGB frames (H, W, 3 uint8) of the whole story, scene after
+    scene: the fallback when 3-D rendering is unavailable."""
+    from PIL import Image, ImageDraw
+
+    w, h = size
+
+    def px(x: float, y: float) -> tuple[float, float]:
+        return x / TABLE_WIDTH_M * w, h - y / TABLE_DEPTH_M * h
+
+    for scene in story.scenes:
+        n = max(1, int(round(scene.duration * fps)))
+        base = Image.new("RGB", size, _BACKGROUNDS.get(scene.background, (0, 0, 0)))
+        draw = ImageDraw.Draw(base)
+        for c in scene.characters:
+            if len(c.path) >= 2:
+                draw.line([px(p[0], p[1]) for p in c.path], fill=(255, 255, 255), width=3)
+        for i in range(n):
+            frame = base.copy()
+            d = ImageDraw.Draw(frame)
+            for c in scene.characters:
+                pos = c.position_at(i / fps)
+                if pos is None:
+                    continue
+                cx, cy = px(*pos)
+                r = 0.03 * w
+                d.ellipse([cx - r, cy - r, cx + r, cy + r], fill=_CHARACTERS.get(c.kind, (200, 200, 200)),
+                          outline=(30, 30, 30), width=2)
+            yield np.asarray(frame)
+
+
+def story_frames_3d(story: Story, fps: float = 15.0, view: str = "camera") -> Iterator[np.ndarray]:
+    """Yield 3-D RGB frames of the whole story (see the module docstring for views).
+
+    Creates the GL renderer on the calling thread and closes it at the end."""
+    if view == "overhead":
+        from app.scene.preview import ScenePreviewRenderer
+        renderer = ScenePreviewRenderer(fps=30.0)
+        try:
+            for scene in story.scenes:
+                for i in range(max(1, int(round(scene.duration * fps)))):
+                    yield renderer.render(scene, i / fps)
+        finally:
+            renderer.close()
+        return
+    from app.scene.stage import StageRenderer, SyntheticRig
+    from ar.boards import DEFAULT_BOARD_SPEC, Board
+
+    # the synthetic hand moves at the video's frame rate; the rig is never a live camera here
+    stage = StageRenderer(rig=SyntheticRig(Board(DEFAULT_BOARD_SPEC), fps=fps), fps=30.0, rig_fps=fps)
+    try:
+        for scene in story.scenes:
+            for i in range(max(1, int(round(scene.duration * fps)))):
+                yield stage.render(scene, i / fps, view).rgb
+    finally:
+        stage.close()
+
+
+def export_story_mp4(story: Story, path: str | Path, fps: float = 15.0,
+                     progress: Callable[[int], None] | None = None, view: str = "camera") -> ExportResult:
+    """Write ``story`` as an H.264 MP4 at ``path``.
+
+    ``view`` is ``camera``, ``overhead``, ``projector`` (3-D) or ``2d``. A 3-D view that
+    cannot render (no pyrender or GL) falls back to ``2d``; the result's ``note`` says
+    why. ``progress(i)`` is called after frame ``i`` is written."""
+    if view not in VIEWS:
+        raise VideoExportError(f"{path}: unknown view {view!r}; choose one of {', '.join(VIEWS)}")
+    why = available()
+    if why:
+        raise VideoExportError(f"{path}: cannot export video: {why}")
+    import imageio.v2 as imageio
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    mode, note, written = view, "", 0
+    frames: Iterator[np.ndarray] = story_frames(story, fps) if view == "2d" else story_frames_3d(story, fps, view)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if view != "2d":
+            try:
+                first = next(frames)
+            except StopIteration:
+                first = None
+            except Exception as exc:  # noqa: BLE001 - no pyrender / no GL / a broken driver: fall back
+                note = f"3-D rendering unavailable ({type(exc).__name__}: {exc}); top-down 2-D video instead"
+                log.warning("%s: %s", path, note)
+                mode, first = "2d", None
+                frames = story_frames(story, fps)
+            if first is not None:
+                frames = _chain(first, frames)
+        with imageio.get_writer(tmp, fps=fps, codec="libx264", macro_block_size=2, quality=6,
+                                pixelformat="yuv420p") as writer:
+            for i, frame in enumerate(frames):
+                writer.append_data(frame)
+                written += 1
+                if progress:
+                    progress(i)
+        tmp.replace(path)
+    except (OSError, RuntimeError, ValueError) as exc:
+        try:
+            tmp.unlink(missing_ok=True)
+        except (OSError, ValueError):
+            pass
+        raise VideoExportError(f"{path}: video export failed ({exc})") from None
+    finally:
+        close = getattr(frames, "close", None)
+        if close:
+            close()
+    return ExportResult(path, mode, written, note)
+
+
+def _chain(first, rest):
+    yield first
+    yield from rest
+
+
+# ---------------------------------------------------------------------------- child process
+_children: set = set()
+
+
+@atexit.register
+def _stop_children() -> None:
+    """An export must not outlive the app that asked for it (it would keep a core busy)."""
+    for proc in list(_children):
+        if proc.poll() is None:
+            proc.terminate()
+
+
+def export_in_subprocess(story: Story, path: str | Path, fps: float = 15.0, view: str = "camera",
+                         progress: Callable[[int, int], None] | None = None) -> ExportResult:
+    """Run :func:`export_story_mp4` in a child Python process (its own GL context, away
+    from the Kivy window's); ``progress(done, total)`` follows its frame count. Blocks:
+    call it from a worker thread."""
+    import tempfile
+
+    path = Path(path)
+    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False, encoding="utf-8") as fh:
+        json.dump(story.to_dict(), fh)
+        story_json = fh.name
+    cmd = [sys.executable, "-m", "app.scene.video_export", story_json, str(path), "--view", view, "--fps", str(fps),
+           "--progress-lines"]
+    root = str(Path(__file__).resolve().parents[2])
+    proc = None
+    # stderr goes to a file: a chatty child must never block on a full pipe nobody reads
+    with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as err_file:
+        try:
+            proc = subprocess.Popen(cmd, cwd=root, stdout=subprocess.PIPE, stderr=err_file, text=True)
+            _children.add(proc)
+            result_line = ""
+            for line in proc.stdout:
+                if line.startswith("progress ") and progress:
+                    done, total = (int(v) for v in line.split()[1:3])
+                    progress(done, total)
+                elif line.startswith("result "):
+                    result_line = line[len("result "):]
+            proc.wait()
+        except OSError as exc:
+            raise VideoExportError(f"{path}: cannot start the video export ({exc})") from None
+        finally:
+            if proc is not None:
+                _children.discard(proc)
+            Path(story_json).unlink(missing_ok=True)
+        err_file.seek(0)
+        err = err_file.read()
+    if proc.returncode != 0 or not result_line:
+        last = [ln for ln in err.strip().splitlines() if ln.strip()][-1:] or [f"exit status {proc.returncode}"]
+        raise VideoExportError(f"{path}: video export failed ({last[0]})")
+    data = json.loads(result_line)
+    return ExportResult(Path(data["path"]), data["mode"], data["frames"], data["note"])
+
+
+def app_exporter(view: str = "camera", fps: float = 15.0):
+    """The exporter the app calls from a worker thread: ``export(story, path,
+    progress(done, total)) -> ExportResult``. 3-D in a child process when pyrender is
+    installed; otherwise (Android, a slim install) the 2-D video in the calling thread,
+    with the reason in the result's ``note`` and the log."""
+    import importlib.util
+
+    if view != "2d" and importlib.util.find_spec("pyrender") is not None:
+        def export(story: Story, path: str | Path, progress=None) -> ExportResult:
+            return export_in_subprocess(story, path, fps, view, progress)
+        return export
+
+    def export_2d(story: Story, path: str | Path, progress=None) -> ExportResult:
+        total = frame_count(story, fps)
+        result = export_story_mp4(story, path, fps, (lambda i: progress(i + 1, total)) if progress else None, "2d")
+        if view != "2d":
+            result.note = "3-D rendering unavailable (pyrender is not installed); top-down 2-D video instead"
+            log.warning("%s: %s", path, result.note)
+        return result
+    return export_2d
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m app.video_export", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("story_json")
+    parser.add_argument("out")
+    parser.add_argument("--view", choices=VIEWS, default="camera")
+    parser.add_argument("--fps", type=float, default=15.0)
+    parser.add_argument("--progress-lines", action="store_true", help="print 'progress DONE TOTAL' lines (for the app)")
+    args = parser.parse_args(argv)
+    try:
+        try:
+            story = Story.from_dict(json.loads(Path(args.story_json).read_text(encoding="utf-8")))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise VideoExportError(f"{args.story_json}: cannot read the story ({exc})") from None
+        total = frame_count(story, args.fps)
+        if args.progress_lines:
+            def progress(i: int) -> None:
+                print(f"progress {i + 1} {total}", flush=True)
+            result = export_story_mp4(story, args.out, args.fps, progress, args.view)
+        else:
+            from tqdm import tqdm
+            with tqdm(total=total, desc="export", unit="frame") as bar:
+                result = export_story_mp4(story, args.out, args.fps, lambda i: bar.update(1), args.view)
+    except StoryBeamError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print("result " + json.dumps({"path": str(result.path), "mode": result.mode, "frames": result.frames,
+                                  "note": result.note}), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

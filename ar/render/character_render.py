@@ -1,0 +1,131 @@
+"""Render an animated character on the table: projector view, camera view, overhead.
+
+* **projector view** — what the projector emits (black = no light): the character
+  rendered through the projector's intrinsics from the projector pose that the tracker
+  estimated (:class:`ar.render.projector_view.ProjectorRenderer`).
+* **camera view** — what the rig's camera (or a bystander) sees: the synthetic camera
+  frame of the board and table with the projected light composited on the table
+  (:class:`ar.synthetic.SyntheticCamera`). The light is cast onto the table plane, as a
+  real projector's would be, so the character looks "painted" on the table and seen
+  from the camera it is distorted exactly as a real projection.
+* **overhead** — a preview for authoring: the character in 3-D on a grey table with the
+  drawn path, from above and in front.
+
+Motions are in StoryBeam's Y-up world, which is this module's *scene frame*: metres,
+origin at the board centre on the table, +X = board +x, +Z = board +y (see
+:mod:`ar.render.projector_view`). So a path drawn in board coordinates is shifted by the board
+centre and used as (X, Z).
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+
+import numpy as np  # noqa: E402
+import pyrender  # noqa: E402
+import trimesh  # noqa: E402
+
+from ar.render.characters import Character  # noqa: E402
+from ar.geometry import look_at  # noqa: E402
+from ar.render.projector_view import ProjectorRenderer  # noqa: E402
+from ar.synthetic import PinholeModel  # noqa: E402
+from retrieval.motion import Motion  # noqa: E402
+
+VIEWS = ("projector", "camera", "overhead")
+
+
+def board_path_to_scene(points_board: np.ndarray, board_centre: np.ndarray) -> np.ndarray:
+    """(N, 2) board-plane points (metres, board frame) -> (N, 2) scene (X, Z)."""
+    return np.asarray(points_board, np.float64)[:, :2] - np.asarray(board_centre, np.float64)[:2]
+
+
+def scaled_model(model: PinholeModel, width: int, height: int) -> PinholeModel:
+    """The same lens at another resolution (intrinsics scaled; distortion unchanged)."""
+    sx, sy = width / model.width, height / model.height
+    K = model.K.copy()
+    K[0, 0] *= sx
+    K[0, 2] = (K[0, 2] + 0.5) * sx - 0.5
+    K[1, 1] *= sy
+    K[1, 2] = (K[1, 2] + 0.5) * sy - 0.5
+    return PinholeModel(K, model.dist.copy(), int(width), int(height))
+
+
+def _material(colour) -> pyrender.MetallicRoughnessMaterial:
+    rgb = np.asarray(colour, np.float64) / 255.0
+    return pyrender.MetallicRoughnessMaterial(baseColorFactor=[*rgb, 1.0], metallicFactor=0.0, roughnessFactor=0.7)
+
+
+class CharacterRig:
+    """A character's parts as nodes of a :class:`ProjectorRenderer`, posed per frame.
+
+    Each part is one static mesh; animating means setting one 4x4 pose per part per
+    frame, which is cheap (no mesh upload)."""
+
+    def __init__(self, renderer: ProjectorRenderer, character: Character, prefix: str = "char"):
+        self.renderer = renderer
+        self.character = character
+        self.names = []
+        for k, part in enumerate(character.parts):
+            mesh = pyrender.Mesh.from_trimesh(part.mesh, material=_material(part.colour), smooth=True)
+            name = f"{prefix}/{k}:{part.name}"
+            renderer.add(name, mesh)
+            self.names.append(name)
+        self._poses: np.ndarray | None = None
+        self._motion: Motion | None = None
+
+    def bind(self, motion: Motion) -> None:
+        """Precompute every frame's part poses (forward kinematics once for the clip)."""
+        self._poses = self.character.all_part_poses(motion)
+        self._motion = motion
+
+    def show_frame(self, frame: int) -> None:
+        if self._poses is None:
+            raise RuntimeError("bind a motion first")
+        f = int(np.clip(frame, 0, len(self._poses) - 1))
+        for name, pose in zip(self.names, self._poses[f]):
+            self.renderer.set_pose(name, pose)
+
+
+def path_ribbon(points_xz: np.ndarray, width: float = 0.006, lift: float = 0.0005) -> trimesh.Trimesh:
+    """A flat ribbon on the table along a path (the child's drawn line), for previews."""
+    p = np.asarray(points_xz, np.float64)
+    d = np.gradient(p, axis=0)
+    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
+    n = np.stack([-d[:, 1], d[:, 0]], axis=1) * width / 2
+    left, right = p + n, p - n
+    verts = np.zeros((2 * len(p), 3))
+    verts[0::2, [0, 2]] = left
+    verts[1::2, [0, 2]] = right
+    verts[:, 1] = lift
+    faces = []
+    for i in range(len(p) - 1):
+        a, b, c, e = 2 * i, 2 * i + 1, 2 * i + 2, 2 * i + 3
+        faces += [[a, c, b], [b, c, e]]
+    mesh = trimesh.Trimesh(verts, np.array(faces), process=False)
+    mesh.fix_normals()
+    return mesh
+
+
+class OverheadView:
+    """An authoring preview: grey table, the path, the character; camera above-front."""
+
+    def __init__(self, character: Character, path_xz: np.ndarray | None, width: int = 640, height: int = 480,
+                 eye=(0.0, 0.32, 0.30), target=(0.0, 0.0, 0.0)):
+        f = 0.9 * width
+        K = np.array([[f, 0, width / 2 - 0.5], [0, f, height / 2 - 0.5], [0, 0, 1.0]])
+        self.renderer = ProjectorRenderer(width, height, K, ambient=0.45, light_intensity=3.5)
+        table = trimesh.creation.box(extents=(1.2, 0.01, 1.0))
+        table.apply_translation([0, -0.0051, 0])
+        self.renderer.add("table", pyrender.Mesh.from_trimesh(table, material=_material((150, 150, 160))))
+        if path_xz is not None and len(path_xz) > 1:
+            self.renderer.add("path", pyrender.Mesh.from_trimesh(path_ribbon(path_xz), material=_material((255, 230, 0))))
+        self.rig = CharacterRig(self.renderer, character)
+        self.renderer.set_view(look_at(np.asarray(eye, float), np.asarray(target, float), np.array([0.0, 1.0, 0.0])))
+
+    def render(self, frame: int) -> np.ndarray:
+        self.rig.show_frame(frame)
+        return self.renderer.render()
+
+    def close(self) -> None:
+        self.renderer.close()

@@ -1,0 +1,50 @@
+"""The research's experiment: the method and its baselines behind one matcher interface
+(the seed's quantised DTW, exact DTW on features, Forbes–Fiume) and the k-fold 1-NN
+evaluation."""
+from __future__ import annotations
+
+from retrieval.experiment.baselines import (
+    ExactDTWMatcher,
+    ForbesFiumeMatcher,
+    kmeans_pp_seeds,
+)
+from retrieval.experiment.evaluation import (
+    METHODS,
+    EvaluationError,
+    MethodResult,
+    evaluate,
+    make_matcher,
+    plot_sweep,
+    stratified_folds,
+    stratified_subset,
+    sweep_dims,
+    warm_up,
+)
+from retrieval.experiment.matchers import (
+    FastMatcher,
+    Matcher,
+    MatcherError,
+    QuantizedMatcher,
+    stack_frames,
+)
+
+__all__ = [
+    "Matcher",
+    "MatcherError",
+    "stack_frames",
+    "QuantizedMatcher",
+    "FastMatcher",
+    "kmeans_pp_seeds",
+    "ExactDTWMatcher",
+    "ForbesFiumeMatcher",
+    "METHODS",
+    "EvaluationError",
+    "MethodResult",
+    "stratified_folds",
+    "stratified_subset",
+    "make_matcher",
+    "evaluate",
+    "sweep_dims",
+    "plot_sweep",
+    "warm_up",
+]

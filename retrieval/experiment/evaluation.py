@@ -1,0 +1,277 @@
+"""The research's experiment: stratified k-fold 1-nearest-neighbour classification.
+
+Protocol (docs/seed-method.md): the clips are split into ``folds`` class-stratified parts;
+each part in turn is the query set and the other parts are the references. Every method is
+fitted on the references only (PCA, μ/σ, k-means never see the queries) — that is its
+*build* phase — and then answers every query with its nearest reference by DTW distance —
+the *search* phase. A query is correct when that reference has the query's class.
+
+Timing: build and search are timed separately with ``time.perf_counter`` (wall) and
+``time.process_time`` (CPU) around exactly those calls, for every method in the same
+process, after the compiled kernels have been warmed up. Within a fold every query is
+answered by all methods back to back, so load from other processes on a shared machine
+hits all methods alike. Search time includes turning the query's features into codes
+(projection + thresholds, or k-d tree look-ups).
+
+Reported per method: accuracy, balanced accuracy (mean of per-class recalls — the classes
+are unbalanced, kicks are scarce), per-class accuracy, search and build seconds.
+:func:`sweep_dims` repeats the proposed method for n = 1..7 and records the cumulative
+contribution ratio (mean over folds) beside accuracy and time.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from retrieval.codes import code_table, full_table
+from retrieval.dtw import dtw_codes, dtw_features
+from retrieval.errors import StoryBeamError
+from retrieval.experiment.baselines import ExactDTWMatcher, ForbesFiumeMatcher
+from retrieval.experiment.matchers import FastMatcher, QuantizedMatcher
+from retrieval.library import Clip
+from retrieval.search import warm_up as warm_up_fast
+
+#: "quantized" is the research's method as it describes it (full 4ⁿ×4ⁿ table, DTW against
+#: every reference); "quantized-fast" gives bit-identical distances from a 20 KiB table with
+#: lower bounds, early abandoning and run-length DTW (docs/retrieval-speed.md).
+METHODS = ("quantized-fast", "quantized", "dtw", "forbes")
+
+
+class EvaluationError(StoryBeamError):
+    """The experiment cannot run as asked (too few clips per class, unknown method)."""
+
+
+def stratified_folds(labels: Sequence[str], folds: int, seed: int = 0) -> list[np.ndarray]:
+    """Indices of each fold: every class is shuffled and dealt round-robin over the folds
+    (the deal continues across classes so fold sizes differ by at most one)."""
+    if folds < 2:
+        raise EvaluationError(f"need at least 2 folds, got {folds}")
+    labels = np.asarray(labels)
+    if len(labels) < folds:
+        raise EvaluationError(f"{len(labels)} clips cannot be split into {folds} folds")
+    rng = np.random.default_rng(seed)
+    parts: list[list[int]] = [[] for _ in range(folds)]
+    k = 0
+    for cls in sorted(set(labels.tolist())):
+        idx = np.flatnonzero(labels == cls)
+        for i in rng.permutation(idx):
+            parts[k % folds].append(int(i))
+            k += 1
+    return [np.array(sorted(p), dtype=np.int64) for p in parts]
+
+
+def make_matcher(name: str, dims: int = 6, band: int | None = None, forbes_clusters: int | None = None,
+                 seed: int = 0, backend: str = "auto"):
+    """A fresh matcher for a method name. Forbes–Fiume's k defaults to 4ⁿ capped at 1024
+    (k-means cost grows with k × frames; the cap is reported with the results)."""
+    if name == "quantized":
+        return QuantizedMatcher(dims, band, backend)
+    if name == "quantized-fast":
+        return FastMatcher(dims=dims, band=band, backend=backend)
+    if name == "dtw":
+        return ExactDTWMatcher(band, backend)
+    if name == "forbes":
+        k = forbes_clusters if forbes_clusters else min(4**dims, 1024)
+        return ForbesFiumeMatcher(clusters=k, band=band, backend=backend, seed=seed)
+    raise EvaluationError(f"unknown method {name!r} (choose from {', '.join(METHODS)})")
+
+
+def warm_up(methods: Sequence[str] = METHODS) -> None:
+    """Compile/load the DTW kernels ``methods`` use, once, so no method's timing pays for
+    compilation."""
+    t = full_table(np.array([0.6, 0.4]))
+    c = np.array([0, 1, 2], dtype=np.int32)
+    dtw_codes(c, c, t)
+    split = code_table(np.array([0.5, 0.3, 0.2]), max_full_dims=1)
+    dtw_codes(c, c, split)
+    x = np.zeros((3, 2))
+    dtw_features(x, x)
+    if "quantized-fast" in methods:
+        warm_up_fast()
+
+
+@dataclass
+class MethodResult:
+    name: str
+    correct: int = 0
+    total: int = 0
+    search_seconds: float = 0.0
+    build_seconds: float = 0.0
+    per_class_correct: dict[str, int] = field(default_factory=dict)
+    per_class_total: dict[str, int] = field(default_factory=dict)
+    predictions: dict[str, str] = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def accuracy(self) -> float:
+        return self.correct / self.total if self.total else 0.0
+
+    @property
+    def per_class(self) -> dict[str, float]:
+        return {c: self.per_class_correct.get(c, 0) / n for c, n in sorted(self.per_class_total.items())}
+
+    @property
+    def balanced_accuracy(self) -> float:
+        pc = self.per_class
+        return float(np.mean(list(pc.values()))) if pc else 0.0
+
+    def as_dict(self) -> dict:
+        cells = self.extra.get("dtw_cells", 0)
+        return {
+            "ns_per_cell": 1e9 * self.search_seconds / cells if cells else None,
+            "accuracy": self.accuracy,
+            "balanced_accuracy": self.balanced_accuracy,
+            "search_seconds": self.search_seconds,
+            "build_seconds": self.build_seconds,
+            "per_class": self.per_class,
+            "correct": self.correct,
+            "queries": self.total,
+            **self.extra,
+        }
+
+
+def stratified_subset(clips: Sequence[Clip], size: int, seed: int = 0) -> list[Clip]:
+    """``size`` clips drawn without replacement, each class keeping (to rounding) its share
+    — the research reports two database sizes; this makes comparable smaller ones."""
+    if not 1 <= size <= len(clips):
+        raise EvaluationError(f"subset size must be 1..{len(clips)}, got {size}")
+    labels = np.array([c.label for c in clips])
+    classes = sorted(set(labels.tolist()))
+    counts = np.array([np.sum(labels == c) for c in classes])
+    want = np.floor(counts * size / len(clips)).astype(int)
+    order = np.argsort(-(counts * size / len(clips) - want), kind="stable")
+    want[order[: size - want.sum()]] += 1
+    rng = np.random.default_rng(seed)
+    chosen = []
+    for c, k in zip(classes, want):
+        chosen.extend(rng.choice(np.flatnonzero(labels == c), size=k, replace=False).tolist())
+    return [clips[i] for i in sorted(chosen)]
+
+
+def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int = 3, dims: int = 6,
+             seed: int = 0, band: int | None = None, forbes_clusters: int | None = None,
+             progress: Callable[[int, int], None] | None = None, matcher_factory: Callable | None = None,
+             backend: str = "auto") -> dict[str, MethodResult]:
+    """Run the k-fold 1-NN protocol for each method; returns results keyed by method.
+    ``progress(done, total)`` is called after each fold."""
+    for m in methods:
+        if m not in METHODS and matcher_factory is None:
+            raise EvaluationError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
+    labels = [c.label for c in clips]
+    parts = stratified_folds(labels, folds, seed)
+    warm_up(methods)
+    results = {m: MethodResult(m) for m in methods}
+    for f, query_idx in enumerate(parts):
+        ref_idx = np.setdiff1d(np.arange(len(clips)), query_idx)
+        refs = [clips[i] for i in ref_idx]
+        factory = matcher_factory or make_matcher
+        matchers = {}
+        for name in methods:  # build phase, timed per method
+            matcher = factory(name, dims=dims, band=band, forbes_clusters=forbes_clusters, seed=seed + f,
+                              backend=backend)
+            t0, c0 = time.perf_counter(), time.process_time()
+            matcher.fit(refs)
+            results[name].build_seconds += time.perf_counter() - t0
+            results[name].extra["build_cpu_seconds"] = (results[name].extra.get("build_cpu_seconds", 0.0)
+                                                        + time.process_time() - c0)
+            matchers[name] = matcher
+        ref_frames = sum(c.n_frames for c in refs)
+        # Search phase: every query is answered by every method back to back (the order
+        # rotating per query), so a busy neighbour on the shared machine slows all
+        # methods alike instead of whichever happened to run at that moment.
+        for qn, q in enumerate(query_idx):
+            for k in range(len(methods)):
+                name = methods[(qn + k) % len(methods)]
+                r = results[name]
+                t0, c0 = time.perf_counter(), time.process_time()
+                nearest = int(np.argmin(matchers[name].distances(clips[q])))
+                r.search_seconds += time.perf_counter() - t0
+                r.extra["search_cpu_seconds"] = r.extra.get("search_cpu_seconds", 0.0) + time.process_time() - c0
+                r.extra["dtw_cells"] = r.extra.get("dtw_cells", 0) + clips[q].n_frames * ref_frames
+                truth, guess = clips[q].label, refs[nearest].label
+                r.total += 1
+                r.correct += truth == guess
+                r.per_class_total[truth] = r.per_class_total.get(truth, 0) + 1
+                r.per_class_correct[truth] = r.per_class_correct.get(truth, 0) + (truth == guess)
+                r.predictions[clips[q].trial] = refs[nearest].trial
+        for name in methods:
+            m, r = matchers[name], results[name]
+            if name == "quantized":
+                r.extra.setdefault("cumulative_ratio_per_fold", []).append(m.quantizer.cumulative_ratio)
+            if name == "forbes":
+                r.extra.setdefault("clusters_per_fold", []).append(int(m.centroids.shape[0]))
+                r.extra.setdefault("pose_dims_per_fold", []).append(int(m.axes.shape[0]))
+        if progress is not None:
+            progress(f + 1, len(parts))
+    return results
+
+
+def sweep_dims(clips: Sequence[Clip], dims_range: Sequence[int], folds: int = 3, seed: int = 0,
+               band: int | None = None, progress: Callable[[int, int], None] | None = None,
+               backend: str = "auto") -> list[dict]:
+    """Proposed method for each n: accuracy, balanced accuracy, search and build seconds,
+    mean cumulative contribution ratio, and the table's size in bytes."""
+    rows = []
+    dims_list = list(dims_range)
+    for step, n in enumerate(dims_list):
+        res = evaluate(clips, ["quantized"], folds, n, seed, band, backend=backend)["quantized"]
+        if progress is not None:
+            progress(step + 1, len(dims_list))
+        m = QuantizedMatcher(n)
+        table_bytes = 4 * (16**n) if n <= m.max_full_dims else None
+        if table_bytes is None:
+            k = (n + 1) // 2
+            table_bytes = 4 * (16**k + 16 ** (n - k))
+        rows.append({
+            "dims": n,
+            "accuracy": res.accuracy,
+            "balanced_accuracy": res.balanced_accuracy,
+            "search_seconds": res.search_seconds,
+            "build_seconds": res.build_seconds,
+            "search_cpu_seconds": res.extra.get("search_cpu_seconds"),
+            "ns_per_cell": res.as_dict()["ns_per_cell"],
+            "cumulative_ratio": float(np.mean(res.extra["cumulative_ratio_per_fold"])),
+            "table": "full" if n <= m.max_full_dims else "split",
+            "table_bytes": int(table_bytes),
+        })
+    return rows
+
+
+def plot_sweep(rows: Sequence[dict], folder) -> list[str]:
+    """Accuracy, search time and cumulative contribution against n, as three PNGs
+    (the research's figures 3, 4 and 5)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from pathlib import Path
+
+    import matplotlib.pyplot as plt
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    n = [r["dims"] for r in rows]
+    specs = [
+        ("sweep_accuracy.png", "accuracy (%)", [100 * r["accuracy"] for r in rows],
+         [100 * r["balanced_accuracy"] for r in rows]),
+        ("sweep_time.png", "search time (s)", [r["search_seconds"] for r in rows], None),
+        ("sweep_contribution.png", "cumulative contribution ratio (%)", [100 * r["cumulative_ratio"] for r in rows], None),
+    ]
+    paths = []
+    for fname, ylabel, ys, ys2 in specs:
+        fig, ax = plt.subplots(figsize=(4.2, 3.0), dpi=100)
+        ax.plot(n, ys, "o-", label=ylabel.split(" (")[0])
+        if ys2 is not None:
+            ax.plot(n, ys2, "s--", label="balanced accuracy")
+            ax.legend(fontsize=8)
+        ax.set_xlabel("kept PCA components n")
+        ax.set_ylabel(ylabel)
+        ax.set_xticks(n)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(out / fname)
+        plt.close(fig)
+        paths.append(str(out / fname))
+    return paths

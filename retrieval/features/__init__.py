@@ -1,0 +1,31 @@
+"""Per-frame features of a motion: the 17 body-part relational distances the search uses
+(:mod:`~retrieval.features.relational`, feature sets by name) and the weighted pose
+vectors of the Forbes–Fiume baseline (:mod:`~retrieval.features.pose_vectors`)."""
+from __future__ import annotations
+
+from retrieval.features.pose_vectors import JOINT_WEIGHTS, pose_frames
+from retrieval.features.relational import (
+    MR17,
+    FeatureError,
+    FeatureSet,
+    FeatureSpec,
+    available_feature_sets,
+    get_feature_set,
+    leg_length,
+    motion_features,
+    register_feature_set,
+)
+
+__all__ = [
+    "FeatureError",
+    "FeatureSpec",
+    "FeatureSet",
+    "MR17",
+    "leg_length",
+    "register_feature_set",
+    "get_feature_set",
+    "available_feature_sets",
+    "motion_features",
+    "JOINT_WEIGHTS",
+    "pose_frames",
+]

@@ -1,0 +1,236 @@
+"""Per-frame relational features: 17 body-part distances after Müller & Röder (SCA 2006).
+
+The research turns every frame into a real vector of 17 distances between body parts and
+does not list them. Ours (:data:`MR17`) are chosen so that each one answers a question a
+child's story motion poses — are the hands together, is a leg stretched, is a foot off the
+ground — and so that none depends on where the performer stands, which way they face, how
+tall they are or which skeleton recorded them:
+
+==  ======================  ==========================================================
+ #  name                    why
+==  ======================  ==========================================================
+ 1  hand_hand               clapping, arms spread (dance), arm swing phase (walk/run)
+ 2  ankle_ankle             stride length: walk vs run, feet together in a jump
+ 3  knee_knee               leg spread independent of foot placement (kicks, dance)
+ 4  elbow_elbow             arm opening even when the hands are close to the body
+ 5  lhand_head              hand raised to / above the head (dance, reach)
+ 6  rhand_head              (mirror of 5)
+ 7  lhand_rshoulder         arm swing across / away from the body (walk, run, dance)
+ 8  rhand_lshoulder         (mirror of 7)
+ 9  lankle_lhip             leg extension = knee bend (crouch before a jump, running)
+10  rankle_rhip             (mirror of 9)
+11  lhand_lshoulder         arm extension = elbow bend (punch-like dance moves, running)
+12  rhand_rshoulder         (mirror of 11)
+13  lankle_height           left foot above the floor: kick, step phase, flight
+14  rankle_height           (mirror of 13)
+15  hips_height             root above the floor: crouch, jump flight, standing
+16  lhand_above_head        signed hand height over the head: arms raised vs down
+17  rhand_above_head        (mirror of 16)
+==  ======================  ==========================================================
+
+Pairs 1–12 are 3-D Euclidean distances, hence invariant to the body's position and heading.
+Heights 13–15 are measured above the clip's *floor*: a low percentile of the lowest
+foot joint (ankle or toe) over the clip, so a jump's flight phase shows as the whole body
+rising, while the file's own ground offset (BVH converters shift it) cancels out.
+16–17 are signed vertical offsets (hand y minus head y).
+
+No pair mixes an upper-body joint (neck, head, shoulders, elbows, hands) with a lower-body
+one (hips, legs, feet): skeletons disagree about the thorax. CMU's BVH conversions give
+``Neck`` a zero offset from ``Spine1``, which drops the thorax bone and moves the whole
+upper body about 12 cm down relative to the Acclaim original (measured on 01_01: every
+upper-body joint off by the thorax vector, every lower-body joint identical). A hand-to-hip
+distance would therefore change with the file format; hand-to-shoulder and hand-to-head
+distances do not.
+
+Every value is divided by the performer's *leg length* (hip→knee→ankle, both legs
+averaged) measured on the skeleton's rest pose: bone lengths do not depend on the rest
+posture (T-pose or A-pose) but do scale with the performer, so a child-sized and an
+adult-sized skeleton doing the same motion give the same numbers. Leg length rather than
+height because skeletons disagree about where the "head" joint sits (Acclaim's head is a
+bone start, Character Creator's is near the eyes), while hips, knees and ankles agree.
+
+The feature set is swappable: :class:`FeatureSet` holds a list of :class:`FeatureSpec`
+and a registry (:func:`register_feature_set`, :func:`get_feature_set`) maps names to sets,
+so an index records which set it was built with and an experiment can try another.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from retrieval.errors import StoryBeamError
+from retrieval.motion import (
+    Motion,
+    Skeleton,
+    canonical_joint_map,
+    positions,
+    rest_positions,
+)
+
+#: Percentile of the per-frame lowest foot height taken as the clip's floor. A low
+#: percentile rather than the minimum, so one glitched frame does not move the floor.
+FLOOR_PERCENTILE = 2.0
+
+_FOOT_JOINTS = ("left_ankle", "left_toe", "right_ankle", "right_toe")
+
+
+class FeatureError(StoryBeamError):
+    """Features cannot be computed for a motion (unknown feature set, bad skeleton)."""
+
+
+@dataclass(frozen=True)
+class FeatureSpec:
+    """One feature: ``kind`` is "distance" (|a−b|), "height" (a above the clip's floor)
+    or "above" (signed vertical offset a.y − b.y); ``joints`` are canonical joint names."""
+
+    name: str
+    kind: str
+    joints: tuple[str, ...]
+    why: str = ""
+
+
+@dataclass(frozen=True)
+class FeatureSet:
+    """An ordered list of features, all divided by the skeleton's leg length."""
+
+    name: str
+    specs: tuple[FeatureSpec, ...]
+    description: str = ""
+
+    @property
+    def dim(self) -> int:
+        return len(self.specs)
+
+    @property
+    def names(self) -> list[str]:
+        return [s.name for s in self.specs]
+
+    def joints_used(self) -> set[str]:
+        used = {j for s in self.specs for j in s.joints}
+        if any(s.kind == "height" for s in self.specs):
+            used.update(_FOOT_JOINTS)
+        return used
+
+    def from_positions(self, pos: np.ndarray, joint_map: dict[str, int], body_size: float) -> np.ndarray:
+        """(T, J, 3) positions in metres, Y up -> (T, dim) float64 features.
+
+        ``joint_map`` maps canonical names to joint indices; ``body_size`` (metres) divides
+        every value.
+        """
+        pos = np.asarray(pos, dtype=np.float64)
+        if pos.ndim != 3 or pos.shape[2] != 3:
+            raise FeatureError(f"positions must be (T, J, 3), got {pos.shape}")
+        if not body_size > 0:
+            raise FeatureError(f"body size must be positive, got {body_size}")
+        missing = sorted(self.joints_used() - set(joint_map))
+        if missing:
+            raise FeatureError(f"feature set {self.name!r} needs joints {', '.join(missing)}")
+
+        def p(name: str) -> np.ndarray:
+            return pos[:, joint_map[name]]
+
+        floor = None
+        out = np.empty((pos.shape[0], self.dim))
+        for k, spec in enumerate(self.specs):
+            if spec.kind == "distance":
+                a, b = spec.joints
+                out[:, k] = np.linalg.norm(p(a) - p(b), axis=1)
+            elif spec.kind == "height":
+                if floor is None:
+                    floor = clip_floor(np.stack([p(f)[:, 1] for f in _FOOT_JOINTS], axis=1))
+                out[:, k] = p(spec.joints[0])[:, 1] - floor
+            elif spec.kind == "above":
+                a, b = spec.joints
+                out[:, k] = p(a)[:, 1] - p(b)[:, 1]
+            else:  # guarded at registration, kept for hand-made sets
+                raise FeatureError(f"feature {spec.name!r}: unknown kind {spec.kind!r}")
+        return out / body_size
+
+
+def clip_floor(foot_heights: np.ndarray) -> float:
+    """The floor of a clip from (T, k) foot-joint heights: a low percentile of each
+    frame's lowest foot joint (see :data:`FLOOR_PERCENTILE`)."""
+    if foot_heights.size == 0:
+        return 0.0
+    return float(np.percentile(foot_heights.min(axis=1), FLOOR_PERCENTILE))
+
+
+def leg_length(skeleton: Skeleton, joint_map: dict[str, int] | None = None) -> float:
+    """Mean hip→knee→ankle length of both legs on the rest pose, in metres."""
+    jm = joint_map if joint_map is not None else canonical_joint_map(skeleton)
+    rest = rest_positions(skeleton)
+    total = 0.0
+    for side in ("left", "right"):
+        hip, knee, ankle = (rest[jm[f"{side}_{part}"]] for part in ("hip", "knee", "ankle"))
+        total += np.linalg.norm(knee - hip) + np.linalg.norm(ankle - knee)
+    size = total / 2.0
+    if not size > 1e-6:
+        raise FeatureError(f"skeleton {skeleton.name or '(unnamed)'}: zero leg length, cannot normalise")
+    return float(size)
+
+
+def _d(name: str, a: str, b: str, why: str) -> FeatureSpec:
+    return FeatureSpec(name, "distance", (a, b), why)
+
+
+#: The 17 Müller–Röder-style distances used by default (see the module docstring).
+MR17 = FeatureSet(
+    name="mr17",
+    description="17 body-part distances after Müller & Röder, divided by leg length",
+    specs=(
+        _d("hand_hand", "left_hand", "right_hand", "clapping, arms spread, arm swing phase"),
+        _d("ankle_ankle", "left_ankle", "right_ankle", "stride length, feet together"),
+        _d("knee_knee", "left_knee", "right_knee", "leg spread independent of the feet"),
+        _d("elbow_elbow", "left_elbow", "right_elbow", "arm opening"),
+        _d("lhand_head", "left_hand", "head", "hand raised to the head"),
+        _d("rhand_head", "right_hand", "head", "hand raised to the head"),
+        _d("lhand_rshoulder", "left_hand", "right_shoulder", "arm swing across / away from the body"),
+        _d("rhand_lshoulder", "right_hand", "left_shoulder", "arm swing across / away from the body"),
+        _d("lankle_lhip", "left_ankle", "left_hip", "leg extension (knee bend)"),
+        _d("rankle_rhip", "right_ankle", "right_hip", "leg extension (knee bend)"),
+        _d("lhand_lshoulder", "left_hand", "left_shoulder", "arm extension (elbow bend)"),
+        _d("rhand_rshoulder", "right_hand", "right_shoulder", "arm extension (elbow bend)"),
+        FeatureSpec("lankle_height", "height", ("left_ankle",), "foot off the floor: kick, step, flight"),
+        FeatureSpec("rankle_height", "height", ("right_ankle",), "foot off the floor: kick, step, flight"),
+        FeatureSpec("hips_height", "height", ("hips",), "crouch, jump flight"),
+        FeatureSpec("lhand_above_head", "above", ("left_hand", "head"), "arms raised vs down"),
+        FeatureSpec("rhand_above_head", "above", ("right_hand", "head"), "arms raised vs down"),
+    ),
+)
+
+_REGISTRY: dict[str, FeatureSet] = {}
+_KINDS = {"distance": 2, "height": 1, "above": 2}
+
+
+def register_feature_set(feature_set: FeatureSet) -> FeatureSet:
+    """Make ``feature_set`` available by name (an index stores the name it was built with)."""
+    for s in feature_set.specs:
+        if _KINDS.get(s.kind) != len(s.joints):
+            raise FeatureError(f"feature {s.name!r}: kind {s.kind!r} with joints {s.joints}")
+    _REGISTRY[feature_set.name] = feature_set
+    return feature_set
+
+
+def get_feature_set(name: str | FeatureSet = "mr17") -> FeatureSet:
+    """The registered feature set called ``name`` (a FeatureSet passes through)."""
+    if isinstance(name, FeatureSet):
+        return name
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise FeatureError(f"unknown feature set {name!r} (known: {', '.join(sorted(_REGISTRY))})") from None
+
+
+def available_feature_sets() -> list[str]:
+    return sorted(_REGISTRY)
+
+
+register_feature_set(MR17)
+
+
+def motion_features(motion: Motion, feature_set: str | FeatureSet = "mr17") -> np.ndarray:
+    """(T, dim) features of a motion: forward kinematics, canonical joints, leg length."""
+    fs = get_feature_set(feature_set)
+    jm = canonical_joint_map(motion.skeleton)
+    return fs.from_positions(positions(motion), jm, leg_length(motion.skeleton, jm))

@@ -1,0 +1,210 @@
+"""A saved, searchable motion library: StoryBeam's one search path.
+
+:class:`MotionIndex` keeps, per clip, its trial name, label and 2-bit code sequence, plus
+the fitted PCA/quantiser. Every question the product asks goes through the exact fast
+search (:mod:`retrieval.search`) over the 20 KiB difference table — never the seed's
+64 MiB table, never a loop over every clip:
+
+* :meth:`MotionIndex.query` — the ``k`` clips nearest to a motion (or its features);
+* :meth:`MotionIndex.similar_to` — "More like this": the clips nearest to an indexed one;
+* :meth:`MotionIndex.subsequence` — the clips that pass through a short query, and where.
+
+The answers are those of the seed's look-up DTW against every clip, sorted (same clips,
+same distances bit for bit, ties by library order); the tests check it against
+:mod:`retrieval.search.reference`. On disk an index is a folder with ``index.json``
+(format version, settings, trials, labels) and ``index.npz`` (quantiser arrays, all codes
+concatenated, per-clip offsets). Anything unreadable or inconsistent raises
+:class:`IndexFormatError` naming the file.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from retrieval.codes import DiffTable, Quantizer
+from retrieval.errors import IndexFormatError, StoryBeamError
+from retrieval.library.clip import Clip, Match
+from retrieval.library.dataset import clip_from_motion, load_dataset
+from retrieval.motion import Motion
+from retrieval.search import FastSearcher, SubsequenceSearcher
+
+FORMAT = "storybeam-motion-index"
+VERSION = 1
+JSON_NAME = "index.json"
+NPZ_NAME = "index.npz"
+
+
+class MotionIndex:
+    """Nearest-clip search by table-look-up DTW over 2-bit PCA codes, through the exact
+    fast search. ``backend`` is the DTW back-end ("auto": numba where installed, else the
+    numpy path the tablet runs; both give the same answers)."""
+
+    def __init__(self, quantizer: Quantizer, codes: Sequence[np.ndarray], trials: list[str], labels: list[str],
+                 fps: float, feature_set: str = "mr17", band: int | None = None, backend: str = "auto"):
+        if not (len(trials) == len(labels) == len(codes)):
+            raise StoryBeamError("index: trials, labels and codes differ in length")
+        if not codes:
+            raise StoryBeamError("cannot build an index from no clips")
+        self.quantizer = quantizer
+        self.codes = [np.ascontiguousarray(c, dtype=np.int32) for c in codes]
+        self.trials = list(trials)
+        self.labels = list(labels)
+        self.fps = float(fps)
+        self.feature_set = feature_set
+        self.band = band
+        self.table = DiffTable.from_ratios(quantizer.ratios)
+        self.searcher = FastSearcher(self.codes, self.table, band=band, backend=backend)
+        self._subsequence: SubsequenceSearcher | None = None
+        self._position = {t: i for i, t in enumerate(self.trials)}
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def from_clips(cls, clips: Sequence[Clip], dims: int = 6, band: int | None = None,
+                   feature_set: str = "mr17", backend: str = "auto") -> "MotionIndex":
+        if not clips:
+            raise StoryBeamError("cannot build an index from no clips")
+        fps = {round(c.fps, 6) for c in clips}
+        if len(fps) != 1:
+            raise StoryBeamError(f"clips have different frame rates {sorted(fps)}: resample them to one fps")
+        quantizer = Quantizer.fit(np.concatenate([c.features for c in clips], axis=0), dims)
+        codes = [quantizer.encode(c.features) for c in clips]
+        return cls(quantizer, codes, [c.trial for c in clips], [c.label for c in clips], clips[0].fps,
+                   feature_set, band, backend)
+
+    @classmethod
+    def build(cls, folder: str | Path, dims: int = 6, fps: float = 30.0, band: int | None = None,
+              feature_set: str = "mr17", progress: Callable[[int, int], None] | None = None) -> "MotionIndex":
+        """Index every clip of a labelled folder (see :mod:`retrieval.library.dataset`) at
+        ``fps``; ``progress(done, total)`` is called after each clip."""
+        clips = load_dataset(folder, fps=fps, feature_set=feature_set, progress=progress)
+        return cls.from_clips(clips, dims, band, feature_set)
+
+    @classmethod
+    def from_motions(cls, motions: Sequence[Motion], labels: Sequence[str] | None = None, dims: int = 6,
+                     fps: float = 30.0, band: int | None = None) -> "MotionIndex":
+        labels = list(labels) if labels is not None else [""] * len(motions)
+        clips = [clip_from_motion(m, m.name or f"clip{i}", labels[i], fps) for i, m in enumerate(motions)]
+        return cls.from_clips(clips, dims, band)
+
+    # ------------------------------------------------------------------ searching
+    def __len__(self) -> int:
+        return len(self.trials)
+
+    @property
+    def dims(self) -> int:
+        return self.quantizer.n
+
+    @property
+    def backend(self) -> str:
+        """The DTW back-end the searches run on ("numba" or "numpy")."""
+        return self.searcher.backend
+
+    def features(self, query: Motion | Clip | np.ndarray) -> np.ndarray:
+        """A query's (frames, 17) features: a motion is resampled to the index's fps."""
+        if isinstance(query, Motion):
+            return clip_from_motion(query, query.name or "query", "", self.fps, self.feature_set).features
+        if isinstance(query, Clip):
+            return query.features
+        arr = np.asarray(query, dtype=np.float64)
+        width = self.quantizer.pca.mean.shape[0]
+        if arr.ndim != 2 or arr.shape[1] != width or arr.shape[0] == 0:
+            raise StoryBeamError(f"query features must be (frames, {width}), got {arr.shape}")
+        return arr
+
+    def encode(self, query: Motion | Clip | np.ndarray) -> np.ndarray:
+        """A query's 2-bit codes under this index's quantiser."""
+        return self.quantizer.encode(self.features(query))
+
+    def position(self, trial: str) -> int:
+        """Library position of an indexed trial."""
+        try:
+            return self._position[trial]
+        except KeyError:
+            raise StoryBeamError(f"no clip {trial!r} in the index") from None
+
+    def _nearest(self, codes: np.ndarray, k: int, exclude: int | None = None) -> list[Match]:
+        if k <= 0:
+            return []
+        want = min(len(self), k + (exclude is not None))
+        res = self.searcher.search([codes], k=want, parallel=False)
+        out = [Match(self.trials[i], self.labels[i], float(d))
+               for i, d in zip(res.indices[0], res.distances[0]) if i >= 0 and i != exclude]
+        return out[:k]
+
+    def query(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
+        """The ``k`` nearest clips to a motion (resampled to the index's fps) or to a
+        (frames, 17) feature array, nearest first."""
+        return self.query_codes(self.encode(query), k)
+
+    def query_codes(self, codes: np.ndarray, k: int = 5) -> list[Match]:
+        """:meth:`query` for codes already encoded with this index's quantiser."""
+        return self._nearest(np.ascontiguousarray(codes, dtype=np.int32), k)
+
+    def similar_to(self, trial: str, k: int = 5) -> list[Match]:
+        """The ``k`` clips nearest to an indexed clip (itself excluded)."""
+        i = self.position(trial)
+        return self._nearest(self.codes[i], k, exclude=i)
+
+    def subsequence(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
+        """The ``k`` clips that pass closest through a (short) query, each with the
+        library frames ``[start, end)`` where it does, nearest first."""
+        if self._subsequence is None:
+            self._subsequence = SubsequenceSearcher(self.codes, self.table, self.searcher.backend)
+        hits = self._subsequence.search(self.encode(query), k=min(k, len(self)))
+        return [Match(self.trials[h.index], self.labels[h.index], h.distance, h.start, h.end + 1) for h in hits]
+
+    # ------------------------------------------------------------------ disk
+    def save(self, folder: str | Path) -> Path:
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        codes = self.codes
+        offsets = np.cumsum([0] + [len(c) for c in codes]).astype(np.int64)
+        arrays = self.quantizer.to_arrays()
+        np.savez_compressed(folder / NPZ_NAME, codes=np.concatenate(codes).astype(np.int32), offsets=offsets, **arrays)
+        meta = {
+            "format": FORMAT, "version": VERSION, "fps": self.fps, "dims": self.dims,
+            "band": self.band, "feature_set": self.feature_set,
+            "trials": self.trials, "labels": self.labels,
+        }
+        (folder / JSON_NAME).write_text(json.dumps(meta, indent=1))
+        return folder
+
+    @staticmethod
+    def is_index(path: str | Path) -> bool:
+        return (Path(path) / JSON_NAME).is_file()
+
+    @classmethod
+    def load(cls, folder: str | Path) -> "MotionIndex":
+        folder = Path(folder)
+        jpath, npath = folder / JSON_NAME, folder / NPZ_NAME
+        try:
+            meta = json.loads(jpath.read_text())
+        except FileNotFoundError:
+            raise IndexFormatError(f"{jpath}: not found") from None
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise IndexFormatError(f"{jpath}: unreadable ({exc})") from None
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+            raise IndexFormatError(f"{jpath}: not a StoryBeam motion index")
+        if meta.get("version") != VERSION:
+            raise IndexFormatError(f"{jpath}: index version {meta.get('version')!r}, expected {VERSION}")
+        try:
+            trials, labels = list(meta["trials"]), list(meta["labels"])
+            fps, band, fset = float(meta["fps"]), meta.get("band"), str(meta.get("feature_set", "mr17"))
+            with np.load(npath) as z:
+                arrays = {k: z[k] for k in z.files}
+            quantizer = Quantizer.from_arrays(arrays)
+            codes_all, offsets = arrays["codes"], arrays["offsets"]
+        except FileNotFoundError:
+            raise IndexFormatError(f"{npath}: not found") from None
+        except (KeyError, ValueError, TypeError, OSError) as exc:
+            raise IndexFormatError(f"{folder}: damaged index ({type(exc).__name__}: {exc})") from None
+        n_codes = 4 ** quantizer.n
+        if (len(offsets) != len(trials) + 1 or len(labels) != len(trials) or offsets[0] != 0
+                or offsets[-1] != len(codes_all) or np.any(np.diff(offsets) <= 0)
+                or (len(codes_all) and (codes_all.min() < 0 or codes_all.max() >= n_codes))):
+            raise IndexFormatError(f"{npath}: codes, offsets and trials are inconsistent")
+        codes = [codes_all[offsets[i]:offsets[i + 1]] for i in range(len(trials))]
+        return cls(quantizer, codes, trials, labels, fps, fset, band)

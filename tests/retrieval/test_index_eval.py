@@ -1,0 +1,208 @@
+"""Dataset loading, the index (build/save/load/query), the k-fold evaluation and the CLI
+JSON shapes, on a tiny synthetic labelled folder written as BVH files."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from retrieval.errors import DatasetError, IndexFormatError
+from tests.support.synthetic_motion import make_motion, make_skeleton, write_bvh
+
+pytest.importorskip("retrieval.motion.formats.dispatch")
+
+STYLES = {  # label: (arm swing, knee bend, bounce, period)
+    "walk": (20.0, 15.0, 0.0, 1.0),
+    "run": (60.0, 45.0, 0.08, 0.6),
+    "wave": (90.0, 3.0, 0.0, 0.8),
+}
+
+
+@pytest.fixture(scope="module")
+def library(tmp_path_factory) -> Path:
+    """9 clips, 3 per class, with different body sizes, phases, lengths and headings."""
+    folder = tmp_path_factory.mktemp("lib")
+    rng = np.random.default_rng(7)
+    rows = ["trial,label,file,skeleton,notes"]
+    for label, (arm, knee, bounce, period) in STYLES.items():
+        for k in range(3):
+            sk = make_skeleton(scale=float(rng.uniform(0.7, 1.1)))
+            m = make_motion(sk, frames=int(rng.integers(36, 50)), fps=30.0, arm_swing=arm * rng.uniform(0.9, 1.1),
+                            knee_bend=knee, bounce=bounce, period=period, phase=float(rng.uniform(0, 6)),
+                            heading_deg=float(rng.uniform(0, 360)))
+            name = f"{label}_{k}"
+            write_bvh(m, folder / f"{name}.bvh")
+            rows.append(f"{name},{label},{name}.bvh,,x")
+    (folder / "labels.csv").write_text("\n".join(rows) + "\n")
+    return folder
+
+
+@pytest.fixture(autouse=True)
+def _private_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("STORYBEAM_CACHE", str(tmp_path / "cache"))
+
+
+def test_dataset_loads_clips_and_reports_bad_rows(library, tmp_path):
+    from retrieval.library import load_dataset
+
+    clips = load_dataset(library, fps=15)
+    assert [c.label for c in clips].count("run") == 3
+    # pose vectors (the Forbes–Fiume baseline's) only when asked for
+    assert all(c.fps == 15 and c.features.shape[1] == 17 and c.pose is None for c in clips)
+    again = load_dataset(library, fps=15)  # through the cache
+    assert np.array_equal(again[4].features, clips[4].features) and again[4].pose is None
+    posed = load_dataset(library, fps=15, pose=True)  # a cached entry without poses is rebuilt
+    assert all(c.pose is not None and c.pose.shape == (c.n_frames, 54) for c in posed)
+    assert np.array_equal(posed[4].features, clips[4].features)
+    seen = []
+    load_dataset(library, fps=15, progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(i + 1, len(clips)) for i in range(len(clips))]
+
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "labels.csv").write_text("trial,label,file\nx,walk,x.bvh\n")
+    with pytest.raises(DatasetError, match="skeleton"):
+        load_dataset(bad)
+    (bad / "labels.csv").write_text("trial,label,file,skeleton\nx,walk,missing.bvh,\n")
+    with pytest.raises(DatasetError, match="line 2.*missing.bvh"):
+        load_dataset(bad)
+
+
+def test_index_query_save_load(library, tmp_path):
+    from retrieval.library import load_dataset
+    from retrieval.library import MotionIndex
+    from retrieval.motion.formats import load_motion
+
+    index = MotionIndex.build(library, dims=3, fps=30)
+    assert len(index) == 9
+    hits = index.query(load_motion(library / "run_1.bvh"), k=3)
+    assert hits[0].trial == "run_1" and hits[0].distance == pytest.approx(0.0, abs=1e-9)
+    assert [h.distance for h in hits] == sorted(h.distance for h in hits)
+    similar = index.similar_to("walk_0", k=2)
+    assert "walk_0" not in [s.trial for s in similar] and similar[0].label == "walk"
+
+    index.save(tmp_path / "idx")
+    loaded = MotionIndex.load(tmp_path / "idx")
+    feats = load_dataset(library, fps=30)[2].features
+    assert loaded.query(feats, k=9) == index.query(feats, k=9)
+
+    (tmp_path / "idx" / "index.json").write_text("{not json")
+    with pytest.raises(IndexFormatError):
+        MotionIndex.load(tmp_path / "idx")
+    with pytest.raises(IndexFormatError):
+        MotionIndex.load(tmp_path / "nowhere")
+
+
+def test_folds_are_stratified_and_disjoint():
+    from retrieval.experiment import stratified_folds
+
+    labels = ["a"] * 7 + ["b"] * 5 + ["c"] * 3
+    parts = stratified_folds(labels, 3, seed=1)
+    allidx = np.concatenate(parts)
+    assert sorted(allidx.tolist()) == list(range(15))
+    for p in parts:
+        assert 4 <= len(p) <= 6
+        assert sum(labels[i] == "c" for i in p) == 1
+
+
+def test_evaluation_separates_the_synthetic_classes(library):
+    from retrieval.library import load_dataset
+    from retrieval.experiment import evaluate
+
+    clips = load_dataset(library, fps=30, pose=True)
+    res = evaluate(clips, ["quantized", "dtw", "forbes"], folds=3, dims=3, forbes_clusters=16)
+    for name, r in res.items():
+        assert r.total == 9
+        assert r.accuracy >= 8 / 9, (name, r.predictions)
+        assert set(r.per_class) == set(STYLES)
+        assert r.search_seconds > 0
+
+
+def test_cli_json_shapes(library, tmp_path):
+    from app.cli import main
+
+    out = tmp_path / "eval.json"
+    rc = main(["eval", "--data", str(library), "--folds", "3", "--dims", "3", "--fps", "15",
+               "--json", str(out), "--sweep-dims", "1-2", "--plots", str(tmp_path / "plots"), "--quiet",
+               "--forbes-clusters", "16"])
+    assert rc == 0
+    data = json.loads(out.read_text())
+    assert data["n_clips"] == 9 and data["total_seconds"] > 0
+    for name in ("quantized", "dtw", "forbes"):
+        m = data["methods"][name]
+        assert 0 <= m["accuracy"] <= 1 and 0 <= m["balanced_accuracy"] <= 1 and m["search_seconds"] > 0
+        assert set(m["per_class"]) == set(STYLES)
+    assert [r["dims"] for r in data["sweep"]] == [1, 2]
+    assert all(Path(p).is_file() for p in data["plots"])
+
+    res = tmp_path / "search.json"
+    rc = main(["search", "--data", str(library), "--query", str(library / "wave_2.bvh"), "--top", "4",
+               "--dims", "3", "--json", str(res), "--save-index", str(tmp_path / "idx")])
+    assert rc == 0
+    results = json.loads(res.read_text())["results"]
+    assert len(results) == 4 and results[0]["trial"] == "wave_2"
+    assert set(results[0]) == {"trial", "label", "distance"}
+    assert [r["distance"] for r in results] == sorted(r["distance"] for r in results)
+    # a saved index works as --data too
+    rc = main(["search", "--data", str(tmp_path / "idx"), "--query", str(library / "wave_2.bvh"), "--json", str(res)])
+    assert rc == 0 and json.loads(res.read_text())["results"][0]["trial"] == "wave_2"
+
+
+def test_cli_reports_bad_input_as_one_line(library, capsys):
+    from app.cli import main
+
+    assert main(["eval", "--data", str(library), "--methods", "magic", "--quiet"]) == 1
+    assert "magic" in capsys.readouterr().err
+    assert main(["search", "--data", str(library), "--query", "/nonexistent.bvh"]) == 1
+
+
+def test_stratified_subset_keeps_class_shares():
+    from retrieval.experiment import EvaluationError, stratified_subset
+    from retrieval.library import Clip
+
+    clips = [Clip(f"t{i}", lab, np.zeros((2, 17)), None, 30.0) for i, lab in enumerate(["a"] * 60 + ["b"] * 30 + ["c"] * 10)]
+    sub = stratified_subset(clips, 50, seed=3)
+    labels = [c.label for c in sub]
+    assert len(sub) == 50 and len({c.trial for c in sub}) == 50
+    assert (labels.count("a"), labels.count("b"), labels.count("c")) == (30, 15, 5)
+    with pytest.raises(EvaluationError):
+        stratified_subset(clips, 101)
+
+
+def test_index_from_motions_and_damaged_npz(tmp_path):
+    from retrieval.library import MotionIndex
+
+    sk = make_skeleton()
+    motions = [make_motion(sk, frames=40, arm_swing=a, knee_bend=k, phase=p)
+               for a, k, p in ((20, 15, 0.0), (22, 15, 1.0), (80, 40, 0.0), (78, 42, 2.0))]
+    for i, m in enumerate(motions):
+        m.name = f"m{i}"
+    index = MotionIndex.from_motions(motions, ["slow", "slow", "big", "big"], dims=2, fps=30)
+    assert index.similar_to("m2", k=1)[0].trial == "m3"
+    assert index.similar_to("m0", k=1)[0].trial == "m1"
+    index.save(tmp_path / "idx")
+    with np.load(tmp_path / "idx" / "index.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["codes"] = arrays["codes"] + 10_000  # outside [0, 4^2)
+    np.savez(tmp_path / "idx" / "index.npz", **arrays)
+    with pytest.raises(IndexFormatError, match="inconsistent"):
+        MotionIndex.load(tmp_path / "idx")
+
+
+def test_fast_quantized_method_finds_exactly_the_seed_methods_neighbours(cmu_dir):
+    """'quantized-fast' must answer every query of the protocol with the same nearest clip
+    (and so the same accuracy) as the seed's full-table search — on real CMU clips, where
+    near-ties make a wrong bound or a wrong table entry show."""
+    from retrieval.library import load_dataset, read_labels
+    from retrieval.experiment import evaluate, stratified_subset
+
+    rows = read_labels(cmu_dir)
+    clips = load_dataset(cmu_dir, fps=15, rows=rows)
+    clips = stratified_subset(clips, 60, seed=1)
+    res = evaluate(clips, ["quantized-fast", "quantized"], folds=3, dims=6)
+    fast, seed = res["quantized-fast"], res["quantized"]
+    assert fast.total == seed.total == 60
+    assert fast.predictions == seed.predictions
+    assert fast.accuracy == seed.accuracy

@@ -1,0 +1,77 @@
+"""PCA, 2-bit levels, integer codes and the code-distance table (seed steps 2–5)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from retrieval.codes import (
+    PCA, Quantizer, QuantizerError, SplitTable, code_table, full_table, levels, pack_codes,
+    table_lookup, unpack_codes,
+)
+
+
+def test_levels_use_mu_sigma_thresholds_with_inclusive_lower_bounds():
+    mu, sigma = np.array([1.0]), np.array([2.0])  # thresholds -1, 1, 3
+    a = np.array([[-1.5], [-1.0], [0.0], [1.0], [2.9], [3.0], [10.0]])
+    assert levels(a, mu, sigma)[:, 0].tolist() == [0, 1, 1, 2, 2, 3, 3]
+
+
+def test_codes_put_component_one_in_the_lowest_bits():
+    g = np.array([[3, 0, 0], [0, 1, 0], [1, 2, 3], [3, 3, 3]])
+    assert pack_codes(g).tolist() == [3, 4, 1 + 2 * 4 + 3 * 16, 63]
+    assert np.array_equal(unpack_codes(pack_codes(g), 3), g)
+
+
+def test_table_values_symmetry_and_zero_diagonal():
+    c = np.array([0.5, 0.3])
+    t = full_table(c)
+    assert t.shape == (16, 16) and t.dtype == np.float32
+    assert np.array_equal(t, t.T)
+    assert np.all(np.diag(t) == 0)
+    # code 0 = levels (0,0); code 3 + 1*4 = levels (3,1): w(3)*c1 + w(1)*c2 = 16*.5 + .3
+    assert t[0, 3 + 4] == pytest.approx(16 * 0.5 + 0.3)
+    # levels (1,2) vs (3,0): w(2)*c1 + w(2)*c2
+    assert t[1 + 2 * 4, 3] == pytest.approx(4 * 0.5 + 4 * 0.3)
+
+
+def test_split_table_equals_full_table():
+    c = np.array([0.3, 0.2, 0.15, 0.1, 0.08])
+    full = full_table(c)
+    split = code_table(c, max_full_dims=3)
+    assert isinstance(split, SplitTable)
+    a, b = np.meshgrid(np.arange(4**5), np.arange(4**5), indexing="ij")
+    assert np.allclose(table_lookup(split, a, b), full, atol=1e-6)
+
+
+def test_pca_finds_the_dominant_axis_and_ratios():
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(4000, 3)) * np.array([5.0, 1.0, 0.2])
+    pca = PCA.fit(x)
+    assert abs(pca.components[0, 0]) > 0.99
+    assert pca.ratios.sum() == pytest.approx(1.0)
+    assert pca.ratios[0] == pytest.approx(25 / 26.04, abs=0.02)
+
+
+def test_quantizer_codes_cover_the_four_levels_evenly_enough():
+    rng = np.random.default_rng(2)
+    x = rng.normal(size=(20000, 17))
+    q = Quantizer.fit(x, 2)
+    g = q.levels(x)
+    # Gaussian coefficients: P(<μ−σ) ≈ 0.159, P(μ−σ..μ) ≈ 0.341
+    frac = np.bincount(g[:, 0], minlength=4) / len(g)
+    assert np.allclose(frac, [0.159, 0.341, 0.341, 0.159], atol=0.02)
+    codes = q.encode(x)
+    assert codes.min() >= 0 and codes.max() < 16
+    assert q.cumulative_ratio == pytest.approx(q.pca.ratios[:2].sum())
+
+
+def test_quantizer_round_trips_through_arrays_and_rejects_bad_input():
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(500, 5))
+    q = Quantizer.fit(x, 3)
+    q2 = Quantizer.from_arrays(q.to_arrays())
+    assert np.array_equal(q.encode(x), q2.encode(x))
+    with pytest.raises(QuantizerError):
+        Quantizer.fit(x, 6)
+    with pytest.raises(QuantizerError):
+        q.encode(np.zeros((4, 7)))
