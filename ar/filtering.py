@@ -169,7 +169,6 @@ class PoseTracker:
         self.filter = pose_filter if pose_filter is not None else PoseKalmanFilter()
         self.jump_reset_m = jump_reset_m
         self.jump_reset_deg = jump_reset_deg
-        self._last_time: float | None = None
         self._last_seen: float | None = None
         self._last_pose: np.ndarray | None = None
         self._last_conf = 0.0
@@ -177,8 +176,6 @@ class PoseTracker:
     def update(self, estimate: PoseEstimate | None, timestamp_s: float) -> TrackerOutput:
         """Feed this frame's estimate (``None`` = board not found) taken at ``timestamp_s``."""
         good = estimate is not None and estimate.confidence >= self.min_confidence
-        dt = 0.0 if self._last_time is None else timestamp_s - self._last_time
-        self._last_time = timestamp_s
         if good:
             restart = self._last_seen is None or timestamp_s - self._last_seen > self.hold_s
             if not restart and self._last_pose is not None:

@@ -1,6 +1,6 @@
 """Compact, exact replacements for the seed's 4ⁿ×4ⁿ code-distance table.
 
-The seed's table (:func:`retrieval.codes.quantizer.full_table`) holds
+The seed's table (:func:`full_table`) holds
 ``D[u, v] = float32(Σ_i c_i · w(|g_i(u) − g_i(v)|))`` for every pair of codes: 64 MiB at
 n = 6. But ``D[u, v]`` depends on ``u`` and ``v`` only through the vector of per-component
 level differences ``d_i = |g_i(u) − g_i(v)|`` ∈ {0..3}ⁿ — 4ⁿ possible vectors, not 16ⁿ
@@ -12,12 +12,18 @@ pairs. Two layouts use that:
   k = ⌈n/2⌉ — 4 KiB at n = 6). ``D[u, v] = F[absdiff[u_lo, v_lo] | absdiff[u_hi, v_hi] << 2k]``.
   ``F`` is *literally* row 0 of the seed's table (``|0 − g| = g``) computed with the same
   float64 operations in the same order, so every value is bit-identical: 20 KiB in all.
-* **component table** (:func:`component_table`): the n×4×4 per-component weights
+* **component table** (:class:`ComponentTable`): the n×4×4 per-component weights
   ``c_i · w(|a − b|)`` in float64 (768 bytes at n = 6); a look-up sums them in the seed's
   order and rounds to float32, again bit-identical, at n look-ups per cell. Kept as an
   ablation and for hardware with tiny caches.
 
 The seed's full table stays available (``layout="full"``) as the reference mode.
+
+One interface for all of them: :func:`make_table` builds any layout from the contribution
+ratios, :func:`table_lookup` reads ``D[a, b]`` from any of them (the full array, a
+:class:`SplitTable`, a :class:`DiffTable` or a :class:`ComponentTable`), and
+:func:`table_bytes` says what a layout costs before it is built. Every layout gives the
+same float values for the same ratios.
 """
 from __future__ import annotations
 
@@ -88,11 +94,15 @@ def code_table(ratios: np.ndarray, max_full_dims: int = MAX_FULL_DIMS) -> np.nda
     return SplitTable(full_table(c[:k]), full_table(c[k:]), k)
 
 
-def table_lookup(table: np.ndarray | SplitTable, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """D[a, b] for either table form (float64)."""
-    if isinstance(table, SplitTable):
-        return table.lookup(a, b)
-    return table[np.asarray(a), np.asarray(b)].astype(np.float64)
+def table_lookup(table: "np.ndarray | SplitTable | DiffTable | ComponentTable", a: np.ndarray,
+                 b: np.ndarray) -> np.ndarray:
+    """``D[a, b]`` elementwise (broadcasting) as float64, for every form of the table: the
+    seed's full array, or a :class:`SplitTable`, :class:`DiffTable` or
+    :class:`ComponentTable` (which answer through their own ``lookup``). All forms give
+    the same values for the same ratios."""
+    if isinstance(table, np.ndarray):
+        return table[np.asarray(a), np.asarray(b)].astype(np.float64)
+    return table.lookup(a, b)
 
 
 def difference_table(ratios: np.ndarray) -> np.ndarray:
@@ -167,6 +177,50 @@ def component_lookup(comp: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarr
     for i in range(comp.shape[0]):
         total = total + comp[i][(a >> (2 * i)) & 3, (b >> (2 * i)) & 3]
     return total.astype(np.float32).astype(np.float64)
+
+
+@dataclass
+class ComponentTable:
+    """The n×4×4 per-component weights (see the module docstring), behind the same
+    ``lookup``/``nbytes`` interface as :class:`DiffTable`."""
+
+    weights: np.ndarray  # (n, 4, 4) float64
+
+    @classmethod
+    def from_ratios(cls, ratios: np.ndarray) -> "ComponentTable":
+        return cls(component_table(ratios))
+
+    @property
+    def n(self) -> int:
+        return int(self.weights.shape[0])
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.weights.nbytes)
+
+    def lookup(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """``D[a, b]`` elementwise as float64, bit-identical to the full table."""
+        return component_lookup(self.weights, a, b)
+
+
+def make_table(ratios: np.ndarray, layout: str = "diff") -> "np.ndarray | DiffTable | ComponentTable":
+    """The code-distance table for contribution ratios ``ratios`` in one of
+    :data:`LAYOUTS`: ``"diff"`` (the search's default, 20 KiB at n = 6), ``"component"``
+    (768 B, n look-ups per cell) or ``"full"`` (the seed's 4ⁿ×4ⁿ float32 array, n ≤
+    :data:`MAX_FULL_DIMS`). Read any of them with :func:`table_lookup`."""
+    n = len(np.asarray(ratios))
+    if not 1 <= n <= MAX_DIMS:
+        raise QuantizerError(f"number of dimensions must be 1..{MAX_DIMS}, got {n}")
+    if layout == "diff":
+        return DiffTable.from_ratios(ratios)
+    if layout == "component":
+        return ComponentTable.from_ratios(ratios)
+    if layout == "full":
+        if n > MAX_FULL_DIMS:
+            raise QuantizerError(f"the full table at n = {n} would take {table_bytes('full', n)} bytes; "
+                                 f"use layout 'diff' (or n ≤ {MAX_FULL_DIMS})")
+        return full_table(ratios)
+    raise QuantizerError(f"unknown table layout {layout!r} (choose from {', '.join(LAYOUTS)})")
 
 
 def table_bytes(layout: str, n: int) -> int:

@@ -39,7 +39,7 @@ class SubsequenceMatch:
         return {"start": self.start, "end": self.end, "distance": self.distance, "raw": self.raw}
 
 
-if HAVE_NUMBA:
+if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is installed)
     from retrieval.dtw.runlength import diff_cost
 
     @numba.njit(cache=True, nogil=True)

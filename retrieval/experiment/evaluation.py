@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
@@ -243,12 +244,10 @@ def sweep_dims(clips: Sequence[Clip], dims_range: Sequence[int], folds: int = 3,
 def plot_sweep(rows: Sequence[dict], folder) -> list[str]:
     """Accuracy, search time and cumulative contribution against n, as three PNGs
     (the research's figures 3, 4 and 5)."""
-    import matplotlib
+    import matplotlib  # optional: matplotlib (plots only; absent on the tablet)
 
     matplotlib.use("Agg")
-    from pathlib import Path
-
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # optional: matplotlib
 
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)

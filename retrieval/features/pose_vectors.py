@@ -28,8 +28,9 @@ def pose_frames(pos: np.ndarray, joint_map: dict[str, int], body_size: float) ->
     idx = [joint_map[n] for n in CANONICAL_JOINTS]
     p = pos[:, idx] - pos[:, [joint_map["hips"]]]
     across = pos[:, joint_map["left_hip"]] - pos[:, joint_map["right_hip"]]
-    # facing = up × (left − right) in the ground plane; angle that turns it onto +Z
-    fx, fz = across[:, 2], -across[:, 0]
+    # facing = (left − right) × up in the ground plane (Y up, right-handed: a body facing
+    # +Z has its left hip on +X); yaw is the angle that turns it onto +Z
+    fx, fz = -across[:, 2], across[:, 0]
     yaw = np.arctan2(fx, fz)
     c, s = np.cos(-yaw), np.sin(-yaw)
     x, z = p[..., 0], p[..., 2]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from retrieval.search.fast import (
     MODES,
+    STAGES,
     FastSearcher,
     PackedCodes,
     SearchResult,
@@ -21,6 +22,7 @@ from retrieval.search.subsequence import SubsequenceHit, SubsequenceSearcher
 
 __all__ = [
     "MODES",
+    "STAGES",
     "PackedCodes",
     "SearchStats",
     "SearchResult",

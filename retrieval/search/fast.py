@@ -31,6 +31,7 @@ distance (it is then the banded DTW, not the seed's); the bounds stay valid.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -50,12 +51,14 @@ from retrieval.dtw import (
 )
 from retrieval.dtw.jit import HAVE_NUMBA, numba
 
-if HAVE_NUMBA:
+if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is installed)
     from retrieval.dtw.range_bound import range_cover_both
     from retrieval.dtw.runlength import diff_cost, rle_dtw_raw
 
 #: "exact": the seed's distance; "runs": the block-corner run-length approximation.
 MODES = ("exact", "runs")
+#: the stages :meth:`FastSearcher.profile_stages` times, in order
+STAGES = ("pack", "rows", "bounds", "loop")
 
 
 if HAVE_NUMBA:
@@ -670,19 +673,7 @@ class FastSearcher:
         t = self.table
         if nq == 1 or not parallel:
             for qi in range(nq):
-                lbs = np.empty(len(self.library))
-                R, colmin = _query_rows(packed.dist_val[packed.dist_off[qi]:packed.dist_off[qi + 1]], self._vocab,
-                                        t.F, t.absdiff, self._shift, self._mask)
-                rowmins = np.empty((len(self.library), packed.dist_off[qi + 1] - packed.dist_off[qi]), np.float32)
-                if not self.use_bounds:
-                    lbs[:] = 0.0
-                    rowmins[:] = 0.0  # no limit, so nothing is cut: the envelopes' values do not matter
-                elif parallel:
-                    _lbs_parallel(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
-                else:
-                    _lbs_serial(qi, Q, L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
-                _refine(qi, Q, L, LV, t.F, t.absdiff, self._shift, self._mask, R, lbs, rowmins, colmin, k, use_rle, band,
-                        out_idx[qi], out_dist[qi], stats[qi], self.use_bounds, self.range_bound)
+                self._search_one(packed, Q, qi, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi], parallel)
         else:
             if not self.use_bounds:
                 raise DTWError("use_bounds=False is only supported for serial searches")
@@ -692,6 +683,60 @@ class FastSearcher:
         for row in stats:
             res.stats.add(row)
         return res
+
+    def _search_one(self, packed: PackedCodes, Q: tuple, qi: int, k: int, use_rle: int, band: int,
+                    out_idx: np.ndarray, out_dist: np.ndarray, stats: np.ndarray, parallel: bool,
+                    times: dict[str, float] | None = None) -> None:
+        """One query through the compiled kernels: its table rows, the envelope bounds of
+        every candidate, then the candidate loop (bound order, range-cover rejection,
+        early-abandoning DP). With ``times``, each stage's seconds are added to it under
+        :data:`STAGES` (``rows``, ``bounds``, ``loop``)."""
+        t = self.table
+        clock = time.perf_counter
+        t0 = clock()
+        R, colmin = _query_rows(packed.dist_val[packed.dist_off[qi]:packed.dist_off[qi + 1]], self._vocab,
+                                t.F, t.absdiff, self._shift, self._mask)
+        t1 = clock()
+        lbs = np.empty(len(self.library))
+        rowmins = np.empty((len(self.library), packed.dist_off[qi + 1] - packed.dist_off[qi]), np.float32)
+        if not self.use_bounds:
+            lbs[:] = 0.0
+            rowmins[:] = 0.0  # no limit, so nothing is cut: the envelopes' values do not matter
+        elif parallel:
+            _lbs_parallel(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
+        else:
+            _lbs_serial(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
+        t2 = clock()
+        _refine(qi, Q, self._L, self._LV, t.F, t.absdiff, self._shift, self._mask, R, lbs, rowmins, colmin, k, use_rle,
+                band, out_idx, out_dist, stats, self.use_bounds, self.range_bound)
+        if times is not None:
+            t3 = clock()
+            for key, dt in (("rows", t1 - t0), ("bounds", t2 - t1), ("loop", t3 - t2)):
+                times[key] = times.get(key, 0.0) + dt
+
+    def profile_stages(self, query: np.ndarray, k: int = 1) -> tuple[SearchResult, dict[str, float]]:
+        """Search one query serially on the compiled path with each stage timed:
+        ``(result, {"pack", "rows", "bounds", "loop"} seconds)`` -- packing the query, its
+        table rows, the envelope bounds, the candidate loop. The answer is the same as
+        :meth:`search`'s. Needs the numba back-end (the numpy path has other stages)."""
+        if self.backend != "numba":
+            raise DTWError("profile_stages times the compiled kernels: it needs the numba back-end")
+        if k < 1:
+            raise DTWError(f"k must be >= 1, got {k}")
+        t0 = time.perf_counter()
+        packed = PackedCodes.from_sequences([query], self.table.size)
+        times = {"pack": time.perf_counter() - t0}
+        out_idx = np.full((1, k), -1, np.int64)
+        out_dist = np.full((1, k), np.inf)
+        stats = np.zeros((1, 5), np.int64)
+        use_rle = self._kernel(int(packed.lengths.max()))
+        band = -1 if self.band is None else int(self.band)
+        if (use_rle != 1 or band >= 0) and len(self._LV[0]) == 0:
+            self._LV = (self._vocab_index(self.library.codes), self._LV[1])
+        self._search_one(packed, packed.arrays(), 0, k, use_rle, band, out_idx[0], out_dist[0], stats[0], False, times)
+        res = SearchResult(out_idx, out_dist)
+        res.stats.add(stats[0])
+        return res, times
 
     # ------------------------------------------------------------------ numpy path
     def _search_numpy(self, packed: PackedCodes, k: int) -> SearchResult:

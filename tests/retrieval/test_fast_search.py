@@ -11,7 +11,7 @@ import pytest
 from retrieval.codes import DiffTable, component_lookup, component_table, difference_table, table_bytes
 from retrieval.dtw import dtw_codes
 from retrieval.errors import StoryBeamError
-from retrieval.search import FastSearcher, PackedCodes, brute_force, brute_force_runs
+from retrieval.search import STAGES, FastSearcher, PackedCodes, brute_force, brute_force_runs
 from retrieval.dtw import envelope_sums, lb_kim, lower_bound
 from retrieval.codes import Quantizer, full_table
 from retrieval.dtw.range_bound import monotone_cover_numpy, range_cover_both, range_cover_numpy, range_lower_bound
@@ -300,6 +300,22 @@ def test_search_with_and_without_the_range_bound_equals_brute_force(tables):
         batch = FastSearcher(lib, diff).search(qs, k=k, parallel=True)
         assert np.array_equal(batch.indices, idx) and np.array_equal(batch.distances, dist)
     assert rejected > 0  # the bound did work here (the equalities above are not vacuous)
+
+
+def test_profiled_search_gives_the_search_answer_and_times_every_stage(tables):
+    pytest.importorskip("numba")
+    _, full, diff = tables
+    rng = np.random.default_rng(52)
+    lib = [_slow_codes(rng, max_runs=40, max_run=12) for _ in range(60)]
+    searcher = FastSearcher(lib, diff, backend="numba")
+    for q in [_slow_codes(rng, max_runs=40, max_run=12) for _ in range(5)]:
+        want = searcher.search([q], k=3, parallel=False)
+        got, times = searcher.profile_stages(q, k=3)
+        assert np.array_equal(got.indices, want.indices) and np.array_equal(got.distances, want.distances)
+        assert got.stats.candidates == want.stats.candidates == len(lib)
+        assert set(times) == set(STAGES) and all(t >= 0.0 for t in times.values())
+    with pytest.raises(StoryBeamError, match="numba"):
+        FastSearcher(lib, diff, backend="numpy").profile_stages(lib[0])
 
 
 def test_range_bound_and_search_on_real_cmu_clips(cmu_dir):

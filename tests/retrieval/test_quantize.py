@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from retrieval.codes import (
-    PCA, Quantizer, QuantizerError, SplitTable, code_table, full_table, levels, pack_codes,
-    table_lookup, unpack_codes,
+    LAYOUTS, PCA, Quantizer, QuantizerError, SplitTable, code_table, full_table, levels, make_table, pack_codes,
+    table_bytes, table_lookup, unpack_codes,
 )
 
 
@@ -75,3 +75,28 @@ def test_quantizer_round_trips_through_arrays_and_rejects_bad_input():
         Quantizer.fit(x, 6)
     with pytest.raises(QuantizerError):
         q.encode(np.zeros((4, 7)))
+
+
+@pytest.mark.parametrize("layout", ["diff", "component", "full"])
+def test_every_table_layout_answers_the_seed_values_through_one_interface(layout):
+    assert layout in LAYOUTS
+    rng = np.random.default_rng(3)
+    c = np.sort(rng.dirichlet(np.ones(5)))[::-1]
+    table = make_table(c, layout)
+    a = rng.integers(0, 4**5, size=(300,))
+    b = rng.integers(0, 4**5, size=(300,))
+    want = full_table(c)[a, b].astype(np.float64)
+    got = table_lookup(table, a, b)
+    assert got.dtype == np.float64
+    assert np.array_equal(got, want)  # bit for bit
+    assert np.array_equal(table_lookup(table, a[:, None], b[None, :20]), full_table(c)[a[:, None], b[None, :20]])
+    assert table.nbytes == table_bytes(layout, 5)
+
+
+def test_make_table_rejects_what_it_cannot_build():
+    with pytest.raises(QuantizerError, match="unknown table layout"):
+        make_table(np.array([0.5, 0.5]), "sparse")
+    with pytest.raises(QuantizerError, match="full table at n = 7"):
+        make_table(np.full(7, 1 / 7), "full")
+    with pytest.raises(QuantizerError, match="1..12"):
+        make_table(np.array([]), "diff")

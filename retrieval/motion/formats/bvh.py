@@ -213,7 +213,6 @@ def _parse_hierarchy(path: Path, lines: list[str]) -> tuple[list[Joint], int]:
     joints: list[Joint] = []
     # Stack of open blocks: (joint index, is end site).
     stack: list[tuple[int, bool]] = []
-    pending: tuple[str, int, bool, int] | None = None  # name, parent, end site, line
 
     def open_block(name: str, parent: int, end_site: bool, line: int) -> None:
         if len(stack) >= MAX_DEPTH:
