@@ -34,3 +34,15 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   touch "$stamp"
 fi
 echo "[setup] ready: $(.venv/bin/python --version)"
+
+# Compile ahead: the search kernels (numba) compile on their first use, about 8 s on 2 cores,
+# and are cached (retrieval/dtw/jit.py: $NUMBA_CACHE_DIR, else $STORYBEAM_CACHE/numba, else
+# ~/.cache/storybeam/numba; one sub-folder per version of the kernels' sources). One search
+# and one subsequence search of the bundled library compile every kernel the product's search
+# path uses, so the first real `storybeam search` (demo, "More like this") loads them in ~20 ms.
+# Where numba is absent this just runs the numpy path.
+echo "[setup] compiling the search kernels ahead (cached; ~10 s the first time)"
+Q=assets/motions/bvh/02_01.bvh
+.venv/bin/python -m app.cli search --query "$Q" -k 1 --json "${TMPDIR:-/tmp}/storybeam-warm.json" >/dev/null
+.venv/bin/python -m app.cli search --query "$Q" -k 1 --subsequence --json "${TMPDIR:-/tmp}/storybeam-warm.json" >/dev/null
+rm -f "${TMPDIR:-/tmp}/storybeam-warm.json"

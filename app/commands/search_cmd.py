@@ -1,17 +1,36 @@
 """`storybeam search`: the clips of a motion library nearest to a query motion file.
 
 ``--data`` is a labelled folder (indexed on the fly) or a saved index folder (contains
-index.json); by default the bundled library in assets/motions.
+index.json); by default the bundled library in assets/motions. Every answer comes from
+:class:`retrieval.library.MotionIndex`, i.e. the exact fast search (the same clips and
+distances as the brute-force look-up DTW against every clip). ``--subsequence`` asks
+instead which clips pass closest through a short query, and at which frames.
+
+``--json [PATH]`` (``-`` or no value: stdout) writes::
+
+  {"query", "data", "mode", "results": [{"rank", "trial", "label", "distance"
+   (, "start", "end" with --subsequence)}], "search_ms", "encode_ms", "kernels_ms",
+   "backend", "clips"}
+
+``encode_ms`` is the time from the loaded motion to its codes (resampling, features,
+quantiser); ``search_ms`` the time from the query's codes to the answer (the index
+search alone), both by :func:`time.perf_counter`. Before them one search for an indexed
+clip loads the compiled kernels (from numba's cache; compiling them if the cache is
+empty, see docs/retrieval-speed.md): ``kernels_ms``.
 """
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+import time
 from pathlib import Path
 
 from app.commands.output import write_json_report
+from app.paths import MOTIONS_DIR
 from retrieval.errors import StoryBeamError
 
-DEFAULT_LIBRARY = Path(__file__).resolve().parents[2] / "assets" / "motions"
+DEFAULT_LIBRARY = MOTIONS_DIR
 
 
 def register(subparsers) -> None:
@@ -20,37 +39,73 @@ def register(subparsers) -> None:
     p.add_argument("--data", default=str(DEFAULT_LIBRARY), help="labelled folder or saved index (default: bundled library)")
     p.add_argument("--query", required=True, help="motion file (.bvh, or .amc with --skeleton)")
     p.add_argument("--skeleton", help="ASF skeleton for an AMC query")
-    p.add_argument("--top", type=int, default=5)
+    p.add_argument("-k", "--top", type=int, default=5, help="how many clips to report (default 5)")
+    p.add_argument("--subsequence", action="store_true",
+                   help="find the clips that pass through a (short) query, with start/end frames")
     p.add_argument("--dims", type=int, default=6, help="PCA components when indexing a folder")
     p.add_argument("--fps", type=float, default=30.0, help="frame rate when indexing a folder")
     p.add_argument("--save-index", help="also save the index built from --data here")
-    p.add_argument("--json", dest="json_out", help="write results as JSON here")
+    p.add_argument("--json", dest="json_out", nargs="?", const="-", metavar="PATH",
+                   help="write the results as JSON to PATH ('-' or no value: stdout, instead of the table)")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from retrieval.library import MotionIndex
+    """Load the library and the query, encode the query, search, report (table and/or JSON)."""
+    from retrieval.library import MotionIndex  # deferred: loads numba, only to search
+    try:
+        from retrieval.motion.formats import load_motion  # optional: the motion loaders
+    except ImportError as exc:
+        raise StoryBeamError(f"motion loaders unavailable: {exc}") from None
 
     data = Path(args.data)
     if args.top < 1:
-        raise StoryBeamError("--top must be at least 1")
+        raise StoryBeamError(f"-k/--top must be at least 1, got {args.top}")
     if not data.exists():
         raise StoryBeamError(f"--data {data}: not found")
     query_path = Path(args.query)
     if not query_path.is_file():
         raise StoryBeamError(f"--query {query_path}: not found")
-    try:
-        from retrieval.motion.formats import load_motion
-    except ImportError as exc:
-        raise StoryBeamError(f"motion loaders unavailable: {exc}") from None
     index = MotionIndex.load(data) if MotionIndex.is_index(data) else MotionIndex.build(data, args.dims, args.fps)
     if args.save_index:
         index.save(args.save_index)
     motion = load_motion(query_path, args.skeleton) if args.skeleton else load_motion(query_path)
-    matches = index.query(motion, k=args.top)
-    print(f"{'rank':>4}  {'trial':<16} {'label':<10} distance")
-    for i, m in enumerate(matches, 1):
-        print(f"{i:>4}  {m.trial:<16} {m.label:<10} {m.distance:.5f}")
-    if args.json_out:
-        write_json_report(args.json_out, {"query": str(query_path), "results": [m.as_dict() for m in matches]})
+
+    # load the compiled kernels (from numba's cache, or compile them on a fresh install)
+    # with one search for an indexed clip, outside the timings: search_ms is the search.
+    tw = time.perf_counter()
+    index.subsequence_codes(index.codes[0], k=1) if args.subsequence else index.query_codes(index.codes[0], k=1)
+    t0 = time.perf_counter()
+    codes = index.encode(motion)
+    t1 = time.perf_counter()
+    if args.subsequence:
+        matches = index.subsequence_codes(codes, k=args.top)
+    else:
+        matches = index.query_codes(codes, k=args.top)
+    t2 = time.perf_counter()
+
+    report = {
+        "query": str(query_path), "data": str(data), "mode": "subsequence" if args.subsequence else "nearest",
+        "results": [{"rank": i, **m.as_dict()} for i, m in enumerate(matches, 1)],
+        "search_ms": (t2 - t1) * 1e3, "encode_ms": (t1 - t0) * 1e3, "kernels_ms": (t0 - tw) * 1e3,
+        "backend": index.backend, "clips": len(index),
+    }
+    to_stdout = args.json_out == "-"
+    if not to_stdout:
+        _print_table(matches, args.subsequence)
+        print(f"{len(index)} clips, search {report['search_ms']:.2f} ms ({index.backend}), "
+              f"encode {report['encode_ms']:.2f} ms, kernels {report['kernels_ms']:.0f} ms")
+    if to_stdout:
+        json.dump(report, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    elif args.json_out:
+        write_json_report(args.json_out, report)
     return 0
+
+
+def _print_table(matches, subsequence: bool) -> None:
+    frames = f" {'frames':>11}" if subsequence else ""
+    print(f"{'rank':>4}  {'trial':<16} {'label':<10} distance{frames}")
+    for i, m in enumerate(matches, 1):
+        where = f" {m.start:>5}-{m.end:<5}" if subsequence else ""
+        print(f"{i:>4}  {m.trial:<16} {m.label:<10} {m.distance:.5f}{where}")

@@ -3,6 +3,8 @@
 and the bundled library's builder."""
 from __future__ import annotations
 
+from retrieval.library.bundle import SELECTION as BUNDLE_SELECTION
+from retrieval.library.bundle import build as build_bundle
 from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import (
     LabelRow,
@@ -27,4 +29,6 @@ __all__ = [
     "MotionIndex",
     "choose_clip",
     "clip_path",
+    "BUNDLE_SELECTION",
+    "build_bundle",
 ]

@@ -1,6 +1,8 @@
 """Build the app's bundled motion library from the shared CMU data.
 
-    python -m retrieval.build_library --data ../shared/data/cmu --out assets/motions
+    storybeam build-library --data ../shared/data/cmu --out assets/motions
+
+(the command, app/commands/build_library_cmd.py, calls :func:`build`; retrieval/ has no CLI).
 
 The app ships a small labelled library (a dataset folder in the same format as the
 shared one: ``labels.csv`` + motion files) so it works offline without the 100 MB
@@ -13,14 +15,12 @@ converted to centimetres and written as BVH with 4 decimals through
 """
 from __future__ import annotations
 
-import argparse
 import csv
-import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
-from retrieval.errors import DatasetError, StoryBeamError
+from retrieval.errors import DatasetError
 from retrieval.motion import Motion, Skeleton, resample
 from retrieval.motion.formats import detect_tpose, load_motion, save_bvh
 
@@ -125,29 +125,7 @@ def _credits(rows: list[dict], fps: float, max_seconds: float) -> str:
         "(http://mocap.cs.cmu.edu), which places no restriction on their use. They were "
         f"converted from the Acclaim ASF/AMC originals to BVH (CMU skeleton, centimetres, "
         f"Y up), resampled to {fps:g} fps and cut to at most {max_seconds:g} s by "
-        "`python -m retrieval.build_library --data ../shared/data/cmu --out assets/motions`.\n\n"
+        "`storybeam build-library --data ../shared/data/cmu --out assets/motions`.\n\n"
         f"Trials: {trials}.\n"
     )
 
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m retrieval.build_library", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, required=True, help="shared CMU folder (with labels.csv)")
-    ap.add_argument("--out", type=Path, required=True, help="library folder to write")
-    ap.add_argument("--fps", type=float, default=30.0)
-    ap.add_argument("--max-seconds", type=float, default=10.0)
-    ap.add_argument("--decimals", type=int, default=4)
-    args = ap.parse_args(argv)
-    try:
-        rows = build(args.data, args.out, args.fps, args.max_seconds, args.decimals)
-    except StoryBeamError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    size = sum(f.stat().st_size for f in args.out.rglob("*") if f.is_file())
-    seconds = sum(float(r["seconds"]) for r in rows)
-    print(f"wrote {len(rows)} clips, {seconds:.1f} s, {size / 1e6:.2f} MB to {args.out}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -7,7 +7,8 @@ search (:mod:`retrieval.search`) over the 20 KiB difference table — never the 
 
 * :meth:`MotionIndex.query` — the ``k`` clips nearest to a motion (or its features);
 * :meth:`MotionIndex.similar_to` — "More like this": the clips nearest to an indexed one;
-* :meth:`MotionIndex.subsequence` — the clips that pass through a short query, and where.
+* :meth:`MotionIndex.subsequence` — the clips that pass through a short query, and where;
+* :meth:`MotionIndex.among` — the nearest clips within a subset (the motion choice's class).
 
 The answers are those of the seed's look-up DTW against every clip, sorted (same clips,
 same distances bit for bit, ties by library order); the tests check it against
@@ -19,6 +20,7 @@ concatenated, per-clip offsets). Anything unreadable or inconsistent raises
 from __future__ import annotations
 
 import json
+import zipfile
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -58,6 +60,7 @@ class MotionIndex:
         self.table = DiffTable.from_ratios(quantizer.ratios)
         self.searcher = FastSearcher(self.codes, self.table, band=band, backend=backend)
         self._subsequence: SubsequenceSearcher | None = None
+        self._subsets: dict[tuple[int, ...], FastSearcher] = {}  # fast searchers over subsets (see among)
         self._position = {t: i for i, t in enumerate(self.trials)}
 
     # ------------------------------------------------------------------ building
@@ -134,6 +137,31 @@ class MotionIndex:
                for i, d in zip(res.indices[0], res.distances[0]) if i >= 0 and i != exclude]
         return out[:k]
 
+    def among(self, codes: np.ndarray, positions: Sequence[int], k: int = 5,
+              exclude: int | None = None) -> list[Match]:
+        """The ``k`` clips nearest to ``codes`` among the library ``positions`` only (the
+        library position ``exclude`` left out), nearest first.
+
+        Method: the exact fast search (:class:`~retrieval.search.FastSearcher`) over just
+        those clips, kept in library order, so the answer is the full search's answer
+        filtered to them — same distances (a clip's distance does not depend on the other
+        clips), ties by library order — at the cost of a search over the subset. The
+        subset's searcher is built once and kept (a few subsets at a time)."""
+        pos = tuple(sorted({int(p) for p in positions} - ({exclude} if exclude is not None else set())))
+        if pos and (pos[0] < 0 or pos[-1] >= len(self)):
+            raise StoryBeamError(f"positions must lie in [0, {len(self)}), got {pos[0]}..{pos[-1]}")
+        if k <= 0 or not pos:
+            return []
+        searcher = self._subsets.get(pos)
+        if searcher is None:
+            if len(self._subsets) >= 8:
+                self._subsets.clear()
+            searcher = self._subsets[pos] = FastSearcher([self.codes[i] for i in pos], self.table, band=self.band,
+                                                         backend=self.searcher.backend)
+        res = searcher.search([np.ascontiguousarray(codes, dtype=np.int32)], k=min(k, len(pos)), parallel=False)
+        return [Match(self.trials[pos[i]], self.labels[pos[i]], float(d))
+                for i, d in zip(res.indices[0], res.distances[0]) if i >= 0]
+
     def query(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
         """The ``k`` nearest clips to a motion (resampled to the index's fps) or to a
         (frames, 17) feature array, nearest first."""
@@ -151,9 +179,15 @@ class MotionIndex:
     def subsequence(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
         """The ``k`` clips that pass closest through a (short) query, each with the
         library frames ``[start, end)`` where it does, nearest first."""
+        return self.subsequence_codes(self.encode(query), k)
+
+    def subsequence_codes(self, codes: np.ndarray, k: int = 5) -> list[Match]:
+        """:meth:`subsequence` for codes already encoded with this index's quantiser."""
+        if k <= 0:
+            return []
         if self._subsequence is None:
             self._subsequence = SubsequenceSearcher(self.codes, self.table, self.searcher.backend)
-        hits = self._subsequence.search(self.encode(query), k=min(k, len(self)))
+        hits = self._subsequence.search(np.ascontiguousarray(codes, dtype=np.int32), k=min(k, len(self)))
         return [Match(self.trials[h.index], self.labels[h.index], h.distance, h.start, h.end + 1) for h in hits]
 
     # ------------------------------------------------------------------ disk
@@ -193,14 +227,17 @@ class MotionIndex:
         try:
             trials, labels = list(meta["trials"]), list(meta["labels"])
             fps, band, fset = float(meta["fps"]), meta.get("band"), str(meta.get("feature_set", "mr17"))
+        except (KeyError, ValueError, TypeError) as exc:
+            raise IndexFormatError(f"{jpath}: damaged index ({type(exc).__name__}: {exc})") from None
+        try:
             with np.load(npath) as z:
                 arrays = {k: z[k] for k in z.files}
             quantizer = Quantizer.from_arrays(arrays)
             codes_all, offsets = arrays["codes"], arrays["offsets"]
         except FileNotFoundError:
             raise IndexFormatError(f"{npath}: not found") from None
-        except (KeyError, ValueError, TypeError, OSError) as exc:
-            raise IndexFormatError(f"{folder}: damaged index ({type(exc).__name__}: {exc})") from None
+        except (KeyError, ValueError, TypeError, OSError, EOFError, zipfile.BadZipFile) as exc:
+            raise IndexFormatError(f"{npath}: damaged index ({type(exc).__name__}: {exc})") from None
         n_codes = 4 ** quantizer.n
         if (len(offsets) != len(trials) + 1 or len(labels) != len(trials) or offsets[0] != 0
                 or offsets[-1] != len(codes_all) or np.any(np.diff(offsets) <= 0)

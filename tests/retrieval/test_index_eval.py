@@ -143,7 +143,7 @@ def test_cli_json_shapes(library, tmp_path):
     assert rc == 0
     results = json.loads(res.read_text())["results"]
     assert len(results) == 4 and results[0]["trial"] == "wave_2"
-    assert set(results[0]) == {"trial", "label", "distance"}
+    assert set(results[0]) == {"rank", "trial", "label", "distance"}
     assert [r["distance"] for r in results] == sorted(r["distance"] for r in results)
     # a saved index works as --data too
     rc = main(["search", "--data", str(tmp_path / "idx"), "--query", str(library / "wave_2.bvh"), "--json", str(res)])
