@@ -1,0 +1,16 @@
+"""StoryBeam's application: everything a child, a teacher or a developer touches.
+
+Layers, each importing only those listed before it (``tests/test_layering.py`` enforces
+it; ``docs/architecture.md`` draws it):
+
+* :mod:`app.story` -- the story model, editing with undo, gestures, crash-safe storage
+  and packages (no Kivy, no GL);
+* :mod:`app.services` -- the motion catalogue, thumbnails and calibration wizard the
+  screens call (no Kivy);
+* :mod:`app.scene` -- the one table-to-scene mapping, the animator, the stage, the render
+  thread and video export;
+* :mod:`app.ui` -- the Kivy screens and widgets only;
+* :mod:`app.commands` -- one module per ``storybeam`` command (found by :mod:`app.cli`);
+* :mod:`app.bench` and :mod:`app.stress` -- benchmarks and robustness harnesses, which no
+  library or app module imports.
+"""

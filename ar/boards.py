@@ -275,14 +275,14 @@ def write_board(board: Board, out: str | Path, dpi: int = 300) -> Path:
     suffix = out.suffix.lower()
     out.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".png":
-        from PIL import Image
+        from PIL import Image  # optional: Pillow (absent on Android, where no board is printed)
 
         Image.fromarray(sheet).save(out, dpi=(true_dpi, true_dpi))
     elif suffix == ".pdf":
-        import matplotlib
+        import matplotlib  # optional: matplotlib (absent on Android, where no board is printed)
 
         matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # optional: matplotlib (after choosing the Agg backend)
 
         w_in = sheet.shape[1] / true_dpi
         h_in = sheet.shape[0] / true_dpi

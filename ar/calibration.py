@@ -30,6 +30,7 @@ principal points); problems raise :class:`ar.errors.CalibrationError` naming the
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator, Sequence
@@ -39,7 +40,7 @@ import numpy as np
 
 from ar.boards import Board
 from ar.errors import CalibrationError
-from ar.geometry import look_at, make_transform, pixels_to_plane, pose_error, rotation_angle_deg
+from ar.geometry import look_at, make_transform, pixels_to_plane, pose_error, project_points
 from ar.pose import solve_board_pose
 
 MIN_VIEW_POINTS = 8
@@ -246,8 +247,6 @@ def capture_from_camera(index: int, n_views: int, board: Board, interval_s: floa
     Frames at least ``interval_s`` apart are kept so the user can move the board between
     them. (Headless: no preview window; the app provides the guided UI.)
     """
-    import time
-
     cap = cv2.VideoCapture(index)
     if not cap.isOpened():
         raise CalibrationError(f"cannot open camera {index}")
@@ -377,8 +376,6 @@ def place_pattern(step: "CaptureStep", T_cam_from_board: np.ndarray, proj_from_c
     estimate): the calibration uses the corners' exact projector pixels, whatever they
     are, so placement error costs nothing but coverage.
     """
-    from ar.geometry import project_points
-
     q = project_points(np.append(step.pattern_target_m, 0.0)[None], proj_from_cam_guess @ T_cam_from_board,
                        projector_K_guess)[0]
     return make_projector_pattern(projector_size, inner, centre=(float(q[0]), float(q[1])))
@@ -533,7 +530,9 @@ def calibrate_projector(views: Sequence[ProjectorViewData], camera: CameraCalibr
     rig's rigidity (the projector pose in view i is ``T_proj_from_cam @ T_cam_from_board_i``),
     which constrains the projector far better than per-view poses do.
     """
-    from scipy.optimize import least_squares
+    # scipy.optimize takes ~470 ms to import (measured with -X importtime) and only this
+    # function needs it; at module level it would triple the cost of `import ar`
+    from scipy.optimize import least_squares  # deferred: ~470 ms import, needed only here
 
     rejected = dict(rejected or {})
     names = [v.name for v in views]
@@ -646,5 +645,6 @@ __all__ = [
     "CameraCalibration", "ProjectorCalibration", "CaptureStep", "ProjectorCalibrationSequence", "ProjectorPattern",
     "calibrate_camera", "calibrate_projector", "calibrate_projector_from_folder", "make_projector_pattern",
     "detect_projected_corners", "extract_projector_view", "rig_pose_for_step", "place_pattern", "load_images", "validate_intrinsics",
-    "capture_from_camera", "extrinsics_error", "write_capture", "rotation_angle_deg",
+    "capture_from_camera", "extrinsics_error", "write_capture", "calibrate_from_correspondences", "ProjectorViewData",
+    "CAPTURE_LOG", "MIN_VIEW_POINTS", "MAX_CALIBRATION_BYTES", "IMAGE_SUFFIXES",
 ]

@@ -6,6 +6,9 @@ dot's centroid in the projector image, and cast that pixel through the *true*
 projector (intrinsics and pose of the synthetic rig) onto the table plane. The
 distance between where the light lands and where the dot should be is the landing
 error -- what a child would see as "the character is off its spot".
+
+It renders through :mod:`ar.render` (pyrender), so ``ar/__init__`` does not import it:
+``from ar.closed_loop import LandingCheck``.
 """
 from __future__ import annotations
 
@@ -17,7 +20,7 @@ import numpy as np
 
 from ar.boards import Board
 from ar.geometry import pixels_to_plane, project_points
-from ar.render.projector_view import ProjectorRenderer, add_dots, board_to_scene_points, projector_from_scene
+from ar.render import ProjectorRenderer, add_dots, board_to_scene_points, projector_from_scene
 
 
 def default_dot_points(board: Board, spacing_m: float = 0.06, n: int = 3) -> np.ndarray:

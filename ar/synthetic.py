@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from ar.boards import Board
+from ar.calibration import place_pattern, rig_pose_for_step
 from ar.geometry import invert, look_at, make_transform, project_points
 
 
@@ -312,8 +313,6 @@ def capture_projector_sequence(cam: SyntheticCamera, sequence, degradation: Degr
     per step. The pattern is placed with the true projector model (placement only; the
     calibration never sees it).
     """
-    from ar.calibration import place_pattern, rig_pose_for_step
-
     rng = np.random.default_rng(seed)
     out = []
     for step in sequence:

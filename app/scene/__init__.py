@@ -1,0 +1,64 @@
+"""The story as moving pictures: the table laid in the 3-D scene, the Play preview, the
+projector stage, the MP4 export, and the thread they render on.
+
+Light modules (numpy and the story only; imported here, safe on Android and at start-up):
+
+* :mod:`app.scene.placement` -- the one table -> scene mapping (``table_to_scene``) and
+  its two placements: the full-size preview table and the miniature on the board;
+* :mod:`app.scene.render_thread` -- ``RenderThread``: one long-lived thread owns the
+  renderer and its GL context; the newest request wins;
+* :mod:`app.scene.app_renderer` -- ``AppRenderer``: the render thread's one renderer,
+  serving the Play preview (a ``Scene``) and the stage (a ``StageJob``);
+* :mod:`app.scene.video_export` -- the teacher's MP4 export (3-D in a child process, or
+  the top-down 2-D fallback).
+
+3-D modules (import :mod:`ar.render`, hence pyrender and trimesh, at load; *not* imported
+here -- import them by module path where 3-D is wanted, as ``ar.render`` is kept out of
+``ar``):
+
+* :mod:`app.scene.animator` -- ``SceneAnimator``: a story character's clip retargeted and
+  laid on its path (shared by the preview, the stage and the export);
+* :mod:`app.scene.preview` -- ``ScenePreviewRenderer``: the Play preview from above the table;
+* :mod:`app.scene.stage` -- ``StageRenderer``: the story through the tracked projector rig;
+* :mod:`app.scene.demo_pipeline` -- ``storybeam demo`` / ``render --demo``: retrieve,
+  animate and render through the synthetic hand-held rig.
+"""
+from __future__ import annotations
+
+from app.scene.app_renderer import AppRenderer, StageJob, app_renderer_factory
+from app.scene.placement import (
+    PREVIEW_PLACEMENT,
+    STAGE_PLACEMENT,
+    STAGE_SCALE,
+    TABLE_CENTRE_M,
+    TablePlacement,
+    scene_to_table,
+    table_to_scene,
+)
+from app.scene.render_thread import RenderThread
+from app.scene.video_export import (
+    VIEWS as EXPORT_VIEWS,
+)
+from app.scene.video_export import (
+    ExportResult,
+    VideoExportError,
+    app_exporter,
+    available,
+    export_in_subprocess,
+    export_story_mp4,
+    frame_count,
+    read_story,
+    story_frames,
+    story_frames_3d,
+)
+
+__all__ = [
+    # placement
+    "TablePlacement", "PREVIEW_PLACEMENT", "STAGE_PLACEMENT", "STAGE_SCALE", "TABLE_CENTRE_M", "table_to_scene",
+    "scene_to_table",
+    # render thread and the app's renderer
+    "RenderThread", "AppRenderer", "StageJob", "app_renderer_factory",
+    # video export
+    "EXPORT_VIEWS", "VideoExportError", "ExportResult", "available", "frame_count", "story_frames",
+    "story_frames_3d", "export_story_mp4", "export_in_subprocess", "app_exporter", "read_story",
+]

@@ -15,24 +15,34 @@ or one still). Everything comes from the bundled assets, so it runs on a fresh m
    light is cast onto the table (camera view), and an overhead preview is rendered;
 5. every few frames a landing check (ar.closed_loop) measures where projected light
    lands on the table versus where it should, through the true projector.
+
+Imports :mod:`ar.render` (pyrender): the commands import this module when they run.
 """
 from __future__ import annotations
 
 import json
-import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+import cv2
+import imageio.v2 as imageio
+import numpy as np
+from PIL import Image
+from tqdm import tqdm
 
-import numpy as np  # noqa: E402
+from app.paths import MOTIONS_DIR
+from app.progress import progress_bar
+from ar import (DEFAULT_BOARD_SPEC, Board, PoseTracker, SyntheticCamera, TrajectoryConfig, default_camera,
+                default_projector, estimate_board_pose, handheld_trajectory)
+from ar.closed_loop import LandingCheck
+from ar.render import CharacterRig, OverheadView, ProjectorRenderer, build_character, scaled_model
+from retrieval.animation import (TablePath, find_loop, follow_path, foot_skate_cm_per_m, path_error_cm,
+                                 retarget)
+from retrieval.errors import StoryBeamError
+from retrieval.library import MotionIndex, choose_clip, clip_path
+from retrieval.motion import load_motion, resample
 
-from retrieval.errors import StoryBeamError  # noqa: E402
-from app.progress import progress_bar  # noqa: E402
-
-REPO_ROOT = Path(__file__).resolve().parents[2]
-MOTIONS = REPO_ROOT / "assets" / "motions"
 VIEW_CHOICES = ("camera", "projector", "overhead", "all")
 
 
@@ -77,12 +87,9 @@ def sample_path(perimeter_m: float, n: int = 200) -> np.ndarray:
 def _query_motion(trial: str):
     """A 2.5 s excerpt of a bundled clip, played at 0.9x speed (a different timing from
     anything in the index)."""
-    from retrieval.motion import resample
-    from retrieval.motion.formats import load_motion
-
-    path = MOTIONS / "bvh" / f"{trial}.bvh"
+    path = MOTIONS_DIR / "bvh" / f"{trial}.bvh"
     if not path.is_file():
-        raise StoryBeamError(f"query clip {trial!r} not found in {MOTIONS / 'bvh'}")
+        raise StoryBeamError(f"query clip {trial!r} not found in {MOTIONS_DIR / 'bvh'}")
     m = load_motion(path)
     n = min(m.n_frames, int(2.5 * m.fps))
     start = (m.n_frames - n) // 2
@@ -91,32 +98,24 @@ def _query_motion(trial: str):
     return slowed.copy(name=f"{trial}-excerpt-0.9x")
 
 
-def load_or_build_index(index_dir: Path, progress: bool = True):
-    from retrieval.library import MotionIndex
-
+def load_or_build_index(index_dir: Path, progress: bool = True) -> tuple[MotionIndex, bool]:
+    """The bundled library's index from ``index_dir``, built and saved there first if
+    needed; ``(index, reused)``."""
     if MotionIndex.is_index(index_dir):
         return MotionIndex.load(index_dir), True
-    index = MotionIndex.build(MOTIONS, fps=30.0, progress=progress_bar("indexing the bundled library", "clip", progress))
+    index = MotionIndex.build(MOTIONS_DIR, fps=30.0, progress=progress_bar("indexing the bundled library", "clip", progress))
     index.save(index_dir)
     return index, False
 
 
 def plan_animation(cfg: DemoConfig, index) -> dict:
     """Retrieve, retarget and lay the motion on the sample path (no rendering)."""
-    from ar.render.characters import build_character
-    from retrieval.animation import foot_skate_cm_per_m, path_error_cm
-    from retrieval.library import choose_clip, clip_path
-    from retrieval.motion.formats import load_motion
-    from retrieval.animation import TablePath, follow_path
-    from retrieval.animation import retarget
-    from retrieval.animation import find_loop
-
     query = _query_motion(cfg.query_trial)
     t0 = time.perf_counter()
     trial, label, distance = choose_clip(index, "walk", query, exclude=(cfg.query_trial,))
     search_ms = (time.perf_counter() - t0) * 1000
     character = build_character(cfg.character, cfg.height_m)
-    source = load_motion(clip_path(MOTIONS, trial))
+    source = load_motion(clip_path(MOTIONS_DIR, trial))
     motion = retarget(source, character.skeleton)
     # Size the loop so a slightly slowed pace (0.8x) fills the requested time, within
     # what fits on the board (a 0.6 m loop spans about 15 x 22 cm).
@@ -140,17 +139,6 @@ def plan_animation(cfg: DemoConfig, index) -> dict:
 
 def run_demo(cfg: DemoConfig) -> dict:
     """Render the demo; returns the report (also written to ``cfg.json_path``)."""
-    import cv2
-    from tqdm import tqdm
-
-    from ar.boards import DEFAULT_BOARD_SPEC, Board
-    from ar.render.character_render import CharacterRig, OverheadView, scaled_model
-    from ar.closed_loop import LandingCheck
-    from ar.filtering import PoseTracker
-    from ar.pose import estimate_board_pose
-    from ar.render.projector_view import ProjectorRenderer
-    from ar.synthetic import SyntheticCamera, TrajectoryConfig, default_camera, default_projector, handheld_trajectory
-
     if cfg.view not in VIEW_CHOICES:
         raise StoryBeamError(f"unknown view {cfg.view!r}; choose one of {', '.join(VIEW_CHOICES)}")
     if cfg.seconds <= 0 or cfg.fps <= 0 or cfg.width < 64 or cfg.height < 48:
@@ -189,8 +177,6 @@ def run_demo(cfg: DemoConfig) -> dict:
 
     writer = None
     if cfg.video is not None and cfg.still_frame is None:
-        import imageio.v2 as imageio
-
         Path(cfg.video).parent.mkdir(parents=True, exist_ok=True)
         writer = imageio.get_writer(str(cfg.video), fps=cfg.fps, codec="libx264", quality=7,
                                     pixelformat="yuv420p", macro_block_size=16)
@@ -280,8 +266,6 @@ def run_demo(cfg: DemoConfig) -> dict:
 
 
 def _save_png(rgb: np.ndarray, path: str | Path) -> None:
-    from PIL import Image
-
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(rgb).save(path)
 

@@ -15,51 +15,50 @@ Per frame (the same loop as ``storybeam demo``, see :mod:`app.scene.demo_pipelin
    what an audience standing by the rig sees.
 
 The story's table (1.2 x 0.8 m on the tablet) is played as a miniature on the marker
-board: scaled by :data:`STAGE_SCALE` and centred on the board, the table's long side along
-the board's long side, the child's edge of the table nearest the rig's camera. Characters
-stand :data:`STAGE_CHARACTER_HEIGHT_M` tall there (a little larger than the scale alone
-would make them, so they read in the projected light; the path timing is kept).
+board (:data:`app.scene.placement.STAGE_PLACEMENT`): scaled by
+:data:`app.scene.placement.STAGE_SCALE` and centred on the board, the table's long side
+along the board's long side, the child's edge of the table nearest the rig's camera.
+Characters stand :data:`STAGE_CHARACTER_HEIGHT_M` tall there (a little larger than the
+scale alone would make them, so they read in the projected light; the path timing is kept).
 
 A :class:`StageRenderer` owns GL state: create and use it on one thread only (the app's
-:class:`app.scene.render_thread.RenderThread`, or the export's worker process).
+:class:`app.scene.render_thread.RenderThread` through
+:class:`app.scene.app_renderer.AppRenderer`, or the export's worker process).
+
+Imports :mod:`ar.render` (pyrender): import this module only where 3-D is wanted.
 """
 from __future__ import annotations
 
 import json
 import logging
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 
-from app.story.model import TABLE_DEPTH_M, TABLE_WIDTH_M, Scene
+from app.paths import MOTIONS_DIR
+from app.scene.animator import SceneAnimator
+from app.scene.placement import STAGE_PLACEMENT
+from app.story import Scene
+from ar import (DEFAULT_BOARD_SPEC, Board, CameraCalibration, PinholeModel, PoseTracker, ProjectorCalibration,
+                SyntheticCamera, TrajectoryConfig, default_camera, default_projector, estimate_board_pose,
+                handheld_trajectory, project_points)
+from ar.render import CharacterRig, ProjectorRenderer, projector_from_scene, scaled_model
 from retrieval.errors import StoryBeamError
-
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+from retrieval.motion import positions
 
 log = logging.getLogger(__name__)
 
-#: table metres -> metres on the board (the story plays as a miniature on the board)
-STAGE_SCALE = 0.28
 STAGE_CHARACTER_HEIGHT_M = 0.10
 #: the rig renders and tracks at this size whatever the output size (as the demo does)
 RIG_SIZE = (640, 480)
 VIEWS = ("projector", "camera")
-TRACKING, HOLDING, LOST = "tracking", "holding", "lost"
 
 
 class StageError(StoryBeamError):
     """The projector stage cannot run (no rig, bad calibration, no renderer)."""
-
-
-def table_to_stage(points: np.ndarray) -> np.ndarray:
-    """Table metres (origin at the front-left corner, y away from the child) -> scene
-    (X, Z) on the board: table +x runs along scene -Z (image right for the rig camera),
-    table +y along scene -X (away from the camera), centred on the board centre."""
-    p = (np.asarray(points, np.float64)[:, :2] - np.array([TABLE_WIDTH_M / 2, TABLE_DEPTH_M / 2])) * STAGE_SCALE
-    return np.stack([-p[:, 1], -p[:, 0]], axis=1)
 
 
 @dataclass
@@ -68,7 +67,7 @@ class StageFrame:
 
     ``rgb`` is the requested view; ``projector`` the light image (black = no light);
     ``character_px`` where each character's hips land in the projector image (None
-    while no pose is known); ``state`` tracking / holding / lost.
+    while no pose is known); ``state`` the tracker's: ``ar.TRACKING`` / ``HOLDING`` / ``LOST``.
     """
 
     rgb: np.ndarray
@@ -90,11 +89,9 @@ class SyntheticRig:
 
     live = False
 
-    def __init__(self, board, fps: float = 30.0, seed: int = 0, loop_s: float = 60.0):
-        from ar.render.character_render import scaled_model
-        from ar.synthetic import (SyntheticCamera, TrajectoryConfig, default_camera, default_projector,
-                                  handheld_trajectory)
-
+    def __init__(self, board: Board | None = None, fps: float = 30.0, seed: int = 0, loop_s: float = 60.0):
+        """``board``: the board the hand holds the rig over (default: the default board)."""
+        board = board if board is not None else Board(DEFAULT_BOARD_SPEC)
         w, h = RIG_SIZE
         self.camera_model = scaled_model(default_camera(), w, h)
         self.projector_model = scaled_model(default_projector(), w, h)
@@ -125,11 +122,6 @@ class LiveRig:
     live = True
 
     def __init__(self, camera_index: int, camera_json: Path, projector_json: Path):
-        import cv2
-
-        from ar.calibration import CameraCalibration, ProjectorCalibration
-        from ar.synthetic import PinholeModel
-
         cam = CameraCalibration.load(camera_json)
         proj = ProjectorCalibration.load(projector_json)
         self.camera_model = PinholeModel(cam.camera_matrix, cam.dist_coeffs, *cam.image_size)
@@ -149,7 +141,7 @@ class LiveRig:
         self._cap.release()
 
 
-def open_rig(profile_dir: Path | None, board, fps: float = 30.0, camera_index: int = 0):
+def open_rig(profile_dir: Path | None, board: Board, fps: float = 30.0, camera_index: int = 0):
     """A :class:`LiveRig` when the profile has both calibration files and the camera opens,
     else the :class:`SyntheticRig` (preview mode). Never raises for a missing rig."""
     if profile_dir is not None:
@@ -174,14 +166,6 @@ class StageRenderer:
                  motions_dir: Path | None = None, rig_fps: float | None = None):
         """``fps``: the animation's frame rate; ``rig_fps``: how often the rig is sampled
         (one call of :meth:`render` = one rig frame; default ``fps``)."""
-        import cv2  # noqa: F401  (fail early, before any GL work, when OpenCV is missing)
-
-        from app.scene.preview import MOTIONS_DIR, SceneAnimator
-        from ar.boards import DEFAULT_BOARD_SPEC, Board
-        from ar.render.character_render import scaled_model
-        from ar.filtering import PoseTracker
-        from ar.render.projector_view import ProjectorRenderer
-
         self.board = Board(DEFAULT_BOARD_SPEC)
         self.fps = fps
         self.rig_fps = rig_fps or fps
@@ -195,7 +179,7 @@ class StageRenderer:
         self.tracker = PoseTracker()
         self.animator = SceneAnimator.from_library(motions_dir or MOTIONS_DIR, fps=fps,
                                                    character_height_m=STAGE_CHARACTER_HEIGHT_M,
-                                                   place=table_to_stage)
+                                                   placement=STAGE_PLACEMENT)
         self._key: str | None = None
         self._rigs: list = []
         self._names: list[str] = []
@@ -214,9 +198,6 @@ class StageRenderer:
 
     def prepare(self, scene: Scene) -> None:
         """Put ``scene``'s characters on stage (no-op if it is already there)."""
-        from ar.render.character_render import CharacterRig
-        from retrieval.motion import positions
-
         key = json.dumps(scene.to_dict(), sort_keys=True)
         if key == self._key:
             return
@@ -240,12 +221,6 @@ class StageRenderer:
         self._key = key
 
     def render(self, scene: Scene, t: float, view: str = "projector") -> StageFrame:
-        import cv2
-
-        from ar.geometry import project_points
-        from ar.pose import estimate_board_pose
-        from ar.render.projector_view import projector_from_scene
-
         if view not in VIEWS:
             raise StageError(f"unknown stage view {view!r}; choose one of {', '.join(VIEWS)}")
         self.prepare(scene)
@@ -287,51 +262,5 @@ class StageRenderer:
             self.rig.close()
 
 
-# ---------------------------------------------------------------------------- app bridge
-@dataclass(frozen=True)
-class StageJob:
-    """A render request for the projector stage (vs. a bare Scene for the Play preview)."""
-
-    scene: Scene
-    view: str = "projector"
-
-
-class AppRenderer:
-    """The one renderer behind the app's render thread: the Play preview (a bare
-    :class:`Scene`) and the projector stage (a :class:`StageJob`), created lazily so
-    each GL context is made on the render thread."""
-
-    def __init__(self, profile_dir: Path | None = None, rig=None):
-        """``rig``: use this rig instead of looking for one (tests)."""
-        self.profile_dir = profile_dir
-        self.rig = rig
-        self._preview = None
-        self._stage: StageRenderer | None = None
-
-    def __call__(self, job, t: float):
-        if isinstance(job, StageJob):
-            if self._stage is None:
-                self._stage = StageRenderer(rig=self.rig, profile_dir=self.profile_dir)
-            try:
-                return self._stage.render(job.scene, t, job.view)
-            except StageError as exc:
-                if not self._stage.live:
-                    raise
-                # the rig's camera went away mid-show: keep the show going on the synthetic rig
-                log.warning("live rig failed, projector stage switches to the synthetic rig: %s", exc)
-                self._stage.close()
-                self._stage = StageRenderer(rig=SyntheticRig(self._stage.board))
-                return self._stage.render(job.scene, t, job.view)
-        if self._preview is None:
-            from app.scene.preview import ScenePreviewRenderer
-            self._preview = ScenePreviewRenderer()
-        return self._preview.render(job, t)
-
-
-def app_renderer_factory(profile_dir: Path | None = None):
-    """The app's renderer factory (runs on the render thread); marked as able to draw
-    the projector stage, which :meth:`StoryBeamApp.stage_available` checks."""
-    def make() -> AppRenderer:
-        return AppRenderer(profile_dir)
-    make.supports_stage = True
-    return make
+__all__ = ["StageError", "StageFrame", "SyntheticRig", "LiveRig", "open_rig", "StageRenderer",
+           "STAGE_CHARACTER_HEIGHT_M", "RIG_SIZE", "VIEWS"]

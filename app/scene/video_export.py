@@ -17,23 +17,29 @@ failing first frame) the export falls back to the top-down 2-D animation drawn w
 Pillow and says so in the result (the teacher screen and the log show it). Encoding is
 imageio-ffmpeg; without ffmpeg, :func:`available` says why.
 
-    python -m app.video_export STORY.json OUT.mp4 [--view camera|overhead|projector|2d] [--fps 15]
+By hand (and in the app's child process): ``storybeam export STORY.json OUT.mp4
+[--view camera|overhead|projector|2d] [--fps 15]`` (:mod:`app.commands.export_cmd`).
+
+This module stays light at import (numpy and the story model): the app imports it at
+start-up, on Android too, where imageio, Pillow and pyrender are absent.
 """
 from __future__ import annotations
 
-import argparse
 import atexit
+import importlib.util
 import json
 import logging
 import subprocess
 import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator
 
 import numpy as np
 
-from app.story.model import TABLE_DEPTH_M, TABLE_WIDTH_M, Story
+from app.paths import REPO_ROOT
+from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Story
 from retrieval.errors import StoryBeamError
 
 # RGB 0..255, mirrors app/ui/art.py (kept separate: that module needs Kivy)
@@ -66,8 +72,8 @@ class ExportResult:
 def available() -> str | None:
     """None when MP4 export works here, else the reason it does not."""
     try:
-        import imageio.v2  # noqa: F401
-        import imageio_ffmpeg
+        import imageio.v2  # noqa: F401  # optional: imageio (absent on Android)
+        import imageio_ffmpeg  # optional: imageio-ffmpeg (absent on Android)
         imageio_ffmpeg.get_ffmpeg_exe()
     except (ImportError, RuntimeError) as exc:
         return f"no ffmpeg ({exc})"
@@ -81,7 +87,7 @@ def frame_count(story: Story, fps: float) -> int:
 def story_frames(story: Story, fps: float = 15.0, size: tuple[int, int] = (640, 426)):
     """Yield top-down 2-D RGB frames (H, W, 3 uint8) of the whole story, scene after
     scene: the fallback when 3-D rendering is unavailable."""
-    from PIL import Image, ImageDraw
+    from PIL import Image, ImageDraw  # optional: Pillow (absent on Android, where there is no export)
 
     w, h = size
 
@@ -114,7 +120,7 @@ def story_frames_3d(story: Story, fps: float = 15.0, view: str = "camera") -> It
 
     Creates the GL renderer on the calling thread and closes it at the end."""
     if view == "overhead":
-        from app.scene.preview import ScenePreviewRenderer
+        from app.scene.preview import ScenePreviewRenderer  # optional: pyrender (the caller falls back to 2-D)
         renderer = ScenePreviewRenderer(fps=30.0)
         try:
             for scene in story.scenes:
@@ -123,11 +129,10 @@ def story_frames_3d(story: Story, fps: float = 15.0, view: str = "camera") -> It
         finally:
             renderer.close()
         return
-    from app.scene.stage import StageRenderer, SyntheticRig
-    from ar.boards import DEFAULT_BOARD_SPEC, Board
+    from app.scene.stage import StageRenderer, SyntheticRig  # optional: pyrender (the caller falls back to 2-D)
 
     # the synthetic hand moves at the video's frame rate; the rig is never a live camera here
-    stage = StageRenderer(rig=SyntheticRig(Board(DEFAULT_BOARD_SPEC), fps=fps), fps=30.0, rig_fps=fps)
+    stage = StageRenderer(rig=SyntheticRig(fps=fps), fps=30.0, rig_fps=fps)
     try:
         for scene in story.scenes:
             for i in range(max(1, int(round(scene.duration * fps)))):
@@ -148,7 +153,7 @@ def export_story_mp4(story: Story, path: str | Path, fps: float = 15.0,
     why = available()
     if why:
         raise VideoExportError(f"{path}: cannot export video: {why}")
-    import imageio.v2 as imageio
+    import imageio.v2 as imageio  # optional: imageio (absent on Android; available() said it is here)
 
     path = Path(path)
     tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
@@ -211,15 +216,14 @@ def export_in_subprocess(story: Story, path: str | Path, fps: float = 15.0, view
     """Run :func:`export_story_mp4` in a child Python process (its own GL context, away
     from the Kivy window's); ``progress(done, total)`` follows its frame count. Blocks:
     call it from a worker thread."""
-    import tempfile
-
     path = Path(path)
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False, encoding="utf-8") as fh:
         json.dump(story.to_dict(), fh)
         story_json = fh.name
-    cmd = [sys.executable, "-m", "app.scene.video_export", story_json, str(path), "--view", view, "--fps", str(fps),
+    # the child is `storybeam export` (app.commands.export_cmd), run from the checkout
+    cmd = [sys.executable, "-m", "app.cli", "export", story_json, str(path), "--view", view, "--fps", str(fps),
            "--progress-lines"]
-    root = str(Path(__file__).resolve().parents[2])
+    root = str(REPO_ROOT)
     proc = None
     # stderr goes to a file: a chatty child must never block on a full pipe nobody reads
     with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as err_file:
@@ -254,8 +258,6 @@ def app_exporter(view: str = "camera", fps: float = 15.0):
     progress(done, total)) -> ExportResult``. 3-D in a child process when pyrender is
     installed; otherwise (Android, a slim install) the 2-D video in the calling thread,
     with the reason in the result's ``note`` and the log."""
-    import importlib.util
-
     if view != "2d" and importlib.util.find_spec("pyrender") is not None:
         def export(story: Story, path: str | Path, progress=None) -> ExportResult:
             return export_in_subprocess(story, path, fps, view, progress)
@@ -271,36 +273,14 @@ def app_exporter(view: str = "camera", fps: float = 15.0):
     return export_2d
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m app.video_export", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("story_json")
-    parser.add_argument("out")
-    parser.add_argument("--view", choices=VIEWS, default="camera")
-    parser.add_argument("--fps", type=float, default=15.0)
-    parser.add_argument("--progress-lines", action="store_true", help="print 'progress DONE TOTAL' lines (for the app)")
-    args = parser.parse_args(argv)
+def read_story(path: str | Path) -> Story:
+    """A story from its JSON file (``Story.to_dict`` form), or :class:`VideoExportError`
+    naming the file."""
     try:
-        try:
-            story = Story.from_dict(json.loads(Path(args.story_json).read_text(encoding="utf-8")))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise VideoExportError(f"{args.story_json}: cannot read the story ({exc})") from None
-        total = frame_count(story, args.fps)
-        if args.progress_lines:
-            def progress(i: int) -> None:
-                print(f"progress {i + 1} {total}", flush=True)
-            result = export_story_mp4(story, args.out, args.fps, progress, args.view)
-        else:
-            from tqdm import tqdm
-            with tqdm(total=total, desc="export", unit="frame") as bar:
-                result = export_story_mp4(story, args.out, args.fps, lambda i: bar.update(1), args.view)
-    except StoryBeamError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    print("result " + json.dumps({"path": str(result.path), "mode": result.mode, "frames": result.frames,
-                                  "note": result.note}), flush=True)
-    return 0
+        return Story.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise VideoExportError(f"{path}: cannot read the story ({exc})") from None
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+__all__ = ["VIEWS", "VideoExportError", "ExportResult", "available", "frame_count", "story_frames",
+           "story_frames_3d", "export_story_mp4", "export_in_subprocess", "app_exporter", "read_story"]

@@ -1,0 +1,34 @@
+"""Kivy-free services between the UI and the heavier parts (motion library, AR rig).
+
+* :mod:`app.services.catalog` -- ``MotionCatalog``: the bundled clips by class at once,
+  "more like this" through the retrieval index once it has loaded in the background;
+* :mod:`app.services.thumbnails` -- stick-figure thumbnails of clips, made on a
+  background thread;
+* :mod:`app.services.calibration_wizard` -- the teacher's camera calibration as steps the
+  UI runs one at a time (board, capture, solve, save), done by ``ar``.
+
+The UI must start fast and keep working where a part is missing (no numba on Android, no
+pyrender, no bundled clips): each service answers from cheap data at once and loads the
+heavy part when it is first needed. No Kivy, no OpenGL, so all of it is tested directly.
+"""
+from __future__ import annotations
+
+from app.services.calibration_wizard import CalibrationStep, CalibrationWizard
+from app.services.catalog import ClipInfo, MotionCatalog
+from app.services.thumbnails import (
+    BONES,
+    HEAD,
+    VIEW_YAW_DEG,
+    StickFrames,
+    ThumbnailCache,
+    clip_stick_frames,
+    library_files,
+    stick_frames,
+)
+
+__all__ = [
+    "MotionCatalog", "ClipInfo",
+    "ThumbnailCache", "StickFrames", "stick_frames", "clip_stick_frames", "library_files", "BONES", "HEAD",
+    "VIEW_YAW_DEG",
+    "CalibrationWizard", "CalibrationStep",
+]

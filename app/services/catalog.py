@@ -12,10 +12,8 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
+from app.paths import MOTIONS_DIR
 from retrieval.errors import StoryBeamError
-
-REPO_ROOT = Path(__file__).resolve().parents[2]
-DEFAULT_MOTIONS_DIR = REPO_ROOT / "assets" / "motions"
 
 log = logging.getLogger(__name__)
 
@@ -32,12 +30,12 @@ class MotionCatalog:
     """The bundled motion library: clip names by class, and "more like this".
 
     ``labels.csv`` is read directly (cheap, no motion parsing) so the motion buttons are
-    ready at start-up. "More like this" uses :class:`retrieval.library.index.MotionIndex` when it
+    ready at start-up. "More like this" uses :class:`retrieval.library.MotionIndex` when it
     can be loaded (a saved index in ``<motions>/index``) or built in a background thread;
     until then it answers with other clips of the same class.
     """
 
-    def __init__(self, motions_dir: str | Path = DEFAULT_MOTIONS_DIR, build_index: bool = True):
+    def __init__(self, motions_dir: str | Path = MOTIONS_DIR, build_index: bool = True):
         self.motions_dir = Path(motions_dir)
         self.clips: list[ClipInfo] = self._read_labels()
         self._index = None
@@ -86,7 +84,9 @@ class MotionCatalog:
 
     def _load_index(self) -> None:
         try:
-            from retrieval.library import MotionIndex
+            # The search stack (numpy, numba kernels) is slow to import; it loads here, on the
+            # index thread, so the motion buttons are ready at start-up without it.
+            from retrieval.library import MotionIndex  # deferred: imported on the index thread, off the UI's start-up
             saved = self.motions_dir / "index"
             index = MotionIndex.load(saved) if MotionIndex.is_index(saved) else MotionIndex.build(self.motions_dir)
             with self._lock:

@@ -16,14 +16,15 @@ from __future__ import annotations
 import csv
 import logging
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from retrieval.motion import CANONICAL_JOINTS, CANONICAL_PARENTS, canonical_joint_map
 from retrieval.errors import StoryBeamError
+from retrieval.motion import CANONICAL_JOINTS, CANONICAL_PARENTS, Motion, canonical_joint_map, load_motion, positions
 
 log = logging.getLogger(__name__)
 
@@ -47,10 +48,8 @@ class StickFrames:
         return len(self.points)
 
 
-def stick_frames(motion, n_frames: int = 8, trial: str = "") -> StickFrames:
+def stick_frames(motion: Motion, n_frames: int = 8, trial: str = "") -> StickFrames:
     """``n_frames`` poses evenly spread over ``motion``, normalised for drawing."""
-    from retrieval.motion import positions
-
     if motion.n_frames < 1:
         raise StoryBeamError(f"clip {trial or motion.name!r} has no frames")
     joints = canonical_joint_map(motion.skeleton)
@@ -85,7 +84,7 @@ def library_files(motions_dir: str | Path) -> dict[str, Path]:
 
 
 def clip_stick_frames(path: str | Path, trial: str, n_frames: int = 8) -> StickFrames:
-    from retrieval.motion.formats import load_motion
+    """The stick figure of the clip in ``path`` (its library id ``trial``)."""
     return stick_frames(load_motion(path), n_frames, trial)
 
 
@@ -130,7 +129,6 @@ class ThumbnailCache:
 
     def wait(self, trials: list[str], timeout: float = 30.0) -> bool:
         """Block until every one of ``trials`` is done (tests, screenshots)."""
-        import time
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if all(t in self._done for t in trials):

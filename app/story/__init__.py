@@ -1,0 +1,68 @@
+"""The story a child makes, and where it is kept -- no Kivy, no OpenGL, no renderer.
+
+* :mod:`app.story.model` -- ``Story`` > ``Scene`` > ``Character`` (sketched path in table
+  metres, ``MotionChoice``, ``Mark``), validated dictionary form, the table's size;
+* :mod:`app.story.editing` -- ``StoryEditor``: every edit the UI makes, with undo/redo;
+* :mod:`app.story.gestures` -- reading a finger's strokes: thinning, spins, hops;
+* :mod:`app.story.storage` -- ``ProfileStore``: the crash-safe SQLite profile, story
+  packages, the teacher's PIN and groups;
+* :mod:`app.story.demo_story` -- the bundled three-scene demo story.
+
+Everything here runs anywhere Python and numpy do (the tablet, tests, a batch job).
+"""
+from __future__ import annotations
+
+from app.story.demo_story import DEMO_STORY_ID, demo_story, wavy_path
+from app.story.editing import MAX_UNDO, StoryEditor
+from app.story.gestures import find_spins, hop_time, thin
+from app.story.model import (
+    ARCS,
+    BACKGROUNDS,
+    CHARACTER_KINDS,
+    MARK_KINDS,
+    MAX_CHARACTERS_PER_SCENE,
+    MAX_PATH_POINTS,
+    MAX_SCENE_SECONDS,
+    MAX_SCENES,
+    MAX_TITLE_CHARS,
+    MOTION_CLASSES,
+    STORY_FORMAT_NAME,
+    STORY_FORMAT_VERSION,
+    TABLE_DEPTH_M,
+    TABLE_WIDTH_M,
+    Character,
+    Mark,
+    MotionChoice,
+    Scene,
+    Story,
+    StoryError,
+    new_id,
+)
+from app.story.storage import (
+    APPLICATION_ID,
+    MIGRATIONS,
+    SCHEMA_VERSION,
+    Group,
+    ProfileStore,
+    StorageError,
+    StorySummary,
+    default_profile_path,
+    read_package,
+)
+
+__all__ = [
+    # model
+    "STORY_FORMAT_VERSION", "STORY_FORMAT_NAME", "ARCS", "CHARACTER_KINDS", "MOTION_CLASSES", "MARK_KINDS",
+    "BACKGROUNDS", "TABLE_WIDTH_M", "TABLE_DEPTH_M", "MAX_PATH_POINTS", "MAX_SCENES", "MAX_CHARACTERS_PER_SCENE",
+    "MAX_TITLE_CHARS", "MAX_SCENE_SECONDS", "StoryError", "new_id", "Mark", "MotionChoice", "Character", "Scene",
+    "Story",
+    # editing
+    "StoryEditor", "MAX_UNDO",
+    # gestures
+    "thin", "find_spins", "hop_time",
+    # storage
+    "ProfileStore", "StorageError", "StorySummary", "Group", "read_package", "default_profile_path",
+    "SCHEMA_VERSION", "MIGRATIONS", "APPLICATION_ID",
+    # demo story
+    "DEMO_STORY_ID", "demo_story", "wavy_path",
+]

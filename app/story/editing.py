@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from app.story.model import (BACKGROUNDS, CHARACTER_KINDS, MARK_KINDS, MAX_CHARACTERS_PER_SCENE, MAX_SCENES,
-                       Character, Mark, MotionChoice, Scene, Story, StoryError, _path_point, new_id)
+                       Character, Mark, MotionChoice, Scene, Story, StoryError, path_point, new_id)
 
 #: How many steps back a child can go; older steps are dropped.
 MAX_UNDO = 200
@@ -185,7 +185,7 @@ class StoryEditor:
         ``spins`` (times found as loops in the same stroke) replace the old spin marks;
         hops that still fall on the new path are kept.
         """
-        points = [_path_point(p, f"path[{i}]") for i, p in enumerate(path)]
+        points = [path_point(p, f"path[{i}]") for i, p in enumerate(path)]
         for i in range(1, len(points)):
             if points[i][2] < points[i - 1][2]:
                 raise StoryError(f"path[{i}]: time goes backwards")

@@ -178,7 +178,7 @@ class Character:
         _require(kind in CHARACTER_KINDS, f"{where}.kind", f"unknown character '{kind}'")
         raw_path = _get(data, "path", where, list)
         _require(len(raw_path) <= MAX_PATH_POINTS, f"{where}.path", f"more than {MAX_PATH_POINTS} points")
-        path = [_path_point(p, f"{where}.path[{i}]") for i, p in enumerate(raw_path)]
+        path = [path_point(p, f"{where}.path[{i}]") for i, p in enumerate(raw_path)]
         for i in range(1, len(path)):
             _require(path[i][2] >= path[i - 1][2], f"{where}.path[{i}]", "time goes backwards")
         motion = MotionChoice.from_dict(_get(data, "motion", where, dict), f"{where}.motion")
@@ -186,7 +186,7 @@ class Character:
         return cls(kind=kind, path=path, motion=motion, marks=marks, id=cid)
 
 
-def _path_point(p: Any, where: str) -> tuple[float, float, float]:
+def path_point(p: Any, where: str) -> tuple[float, float, float]:
     _require(isinstance(p, (list, tuple)) and len(p) == 3, where, "expected [x, y, t]")
     _require(all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in p), where, "expected numbers")
     x, y, t = (_finite(v, where) for v in p)

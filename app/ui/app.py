@@ -2,6 +2,8 @@
 
 Import this module only after the Kivy environment is set (see
 :func:`app.ui.env.prepare_kivy_env`): Kivy reads its settings at import time.
+It imports the story, the services and the light part of :mod:`app.scene` only: the
+3-D renderers are loaded by the render thread (``renderer_factory``), when there is one.
 """
 from __future__ import annotations
 
@@ -17,20 +19,16 @@ from kivy.uix.boxlayout import BoxLayout
 from kivy.uix.modalview import ModalView
 from kivy.uix.screenmanager import NoTransition, ScreenManager
 
-from app.story.demo_story import demo_story
-from app.story.editing import StoryEditor
-from app.services.catalog import MotionCatalog
-from app.story.storage import ProfileStore, StorageError
-from app.story.model import Story
+from app.paths import FONT_PATH
+from app.scene import RenderThread, StageJob, app_exporter, available
+from app.services import MotionCatalog, ThumbnailCache
+from app.story import ProfileStore, Scene, StorageError, Story, StoryEditor, demo_story
 from app.ui.editor import EditorScreen
 from app.ui.home import HomeScreen
 from app.ui.play import PlayScreen, ProjectorScreen
 from app.ui.strings import LANGUAGES, tr
 from app.ui.teacher import CalibrationScreen, PinScreen, TeacherScreen
 from app.ui.widgets import big_label, filled
-
-REPO_ROOT = Path(__file__).resolve().parent.parent.parent
-FONT_PATH = REPO_ROOT / "assets" / "fonts" / "Mplus1-Medium.otf"
 
 log = logging.getLogger(__name__)
 
@@ -103,12 +101,10 @@ class StoryBeamApp(App):
         saved_lang = self.store.get_setting("language")
         self.lang = self.requested_lang or (saved_lang if saved_lang in LANGUAGES else "ja")
         if self.renderer_factory is not None:
-            from app.scene.render_thread import RenderThread
             self.renderer = RenderThread(self.renderer_factory,
                                          lambda cb, frame: Clock.schedule_once(lambda dt: cb(frame), 0))
-        from app.scene import video_export
-        if video_export.available() is None:
-            self.video_exporter = video_export.app_exporter(self.video_view)
+        if available() is None:
+            self.video_exporter = app_exporter(self.video_view)
         self.sm = ScreenManager(transition=NoTransition())
         for screen in (HomeScreen(name="home"), EditorScreen(name="editor"), PlayScreen(name="play"),
                        ProjectorScreen(name="projector"), PinScreen(name="pin"), TeacherScreen(name="teacher"),
@@ -229,13 +225,11 @@ class StoryBeamApp(App):
     def request_frame(self, scene, t: float, callback) -> None:
         """Ask the 3-D renderer (if any) for a frame; the 2-D preview is always drawn."""
         if self.renderer is not None and self.renderer.alive:
-            from app.story.model import Scene
             self.renderer.request(Scene.from_dict(scene.to_dict()), t, callback)  # a copy: the UI owns the original
 
     def motion_thumbnails(self):
         """The stick-figure thumbnails of the motion library (made on first use)."""
         if getattr(self, "_thumbnails", None) is None:
-            from app.services.thumbnails import ThumbnailCache
             self._thumbnails = ThumbnailCache(self.catalog.motions_dir)
         return self._thumbnails
 
@@ -248,9 +242,7 @@ class StoryBeamApp(App):
     def request_stage_frame(self, scene, t: float, view: str, callback) -> None:
         """Ask the render thread for a projector-stage frame (:class:`app.scene.stage.StageFrame`)."""
         if self.renderer is not None and self.renderer.alive:
-            from app.scene.stage import StageJob
-            from app.story.model import Scene
             self.renderer.request(StageJob(Scene.from_dict(scene.to_dict()), view), t, callback)
 
 
-__all__ = ["StoryBeamApp", "register_fonts", "FONT_PATH"]
+__all__ = ["StoryBeamApp", "register_fonts"]

@@ -11,7 +11,7 @@ from kivy.graphics import Color, Ellipse, Line
 from kivy.metrics import dp
 from kivy.uix.widget import Widget
 
-from app.services.thumbnails import BONES, HEAD, StickFrames, ThumbnailCache
+from app.services import BONES, HEAD, StickFrames, ThumbnailCache
 from app.ui.widgets import IconButton
 
 POSES_PER_SECOND = 6.0

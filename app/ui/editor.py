@@ -15,13 +15,12 @@ from kivy.uix.screenmanager import Screen
 from kivy.uix.scrollview import ScrollView
 from kivy.uix.widget import Widget
 
-from app.story.gestures import find_spins, hop_time
-from app.story.model import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES
-from retrieval.errors import StoryBeamError
+from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES, find_spins, hop_time
 from app.ui.art import MOTION_COLOURS, draw_background, draw_character_badge
 from app.ui.clip_tiles import ClipTile
 from app.ui.table_view import TableView, normalise_times
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
+from retrieval.errors import StoryBeamError
 
 THUMB_DP = 96
 CLIP_TILE_DP = 150  # "more like this" tiles: big enough to see the stick figure move

@@ -29,6 +29,7 @@ def prepare_kivy_env(headless: bool = False, width: int = 1280, height: int = 80
         and not os.environ.get("WAYLAND_DISPLAY") and "ANDROID_ARGUMENT" not in os.environ
     if headless or no_display:
         os.environ["SDL_VIDEODRIVER"] = "offscreen"
+    # deferred: Kivy reads the environment set above when it is first imported
     from kivy.config import Config
     Config.set("graphics", "width", str(width))
     Config.set("graphics", "height", str(height))

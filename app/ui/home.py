@@ -12,8 +12,7 @@ from kivy.uix.modalview import ModalView
 from kivy.uix.screenmanager import Screen
 from kivy.uix.scrollview import ScrollView
 
-from app.story.storage import StorageError, StorySummary
-from app.story.model import Scene
+from app.story import Scene, StorageError, StorySummary
 from app.ui.art import draw_background, draw_character_badge
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 

@@ -20,7 +20,7 @@ from kivy.uix.label import Label
 from kivy.uix.modalview import ModalView
 from kivy.uix.scrollview import ScrollView
 
-from app.story.storage import StorageError
+from app.story import StorageError
 from app.ui.widgets import IconButton, big_label, filled
 
 MAX_LISTED = 60  # a downloads folder can be big; the newest packages are listed first

@@ -7,17 +7,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from app.paths import UI_ASSETS
 from app.ui.env import prepare_kivy_env
 
-OUT = Path(__file__).resolve().parent.parent.parent / "assets" / "ui"
+#: where the icon and presplash go (assets/ui)
+OUT = UI_ASSETS
 
 
 def main() -> None:
     prepare_kivy_env(headless=True)
-    from kivy.core.window import Window  # noqa: F401  (creates the GL context the Fbo needs)
-    from kivy.graphics import ClearBuffers, ClearColor, Color, Ellipse, Fbo
+    # Kivy reads its environment at import, so every Kivy import comes after prepare_kivy_env();
+    # deferred: after prepare_kivy_env(); importing the Window creates the GL context the Fbo needs
+    from kivy.core.window import Window  # noqa: F401
+    from kivy.graphics import ClearBuffers, ClearColor, Color, Ellipse, Fbo  # deferred: after prepare_kivy_env()
 
-    from app.ui.art import draw_background, draw_character_badge
+    from app.ui.art import draw_background, draw_character_badge  # deferred: imports Kivy, after prepare_kivy_env()
 
     def render(size: int, name: str, with_scene: bool) -> Path:
         fbo = Fbo(size=(size, size), with_stencilbuffer=False)

@@ -25,7 +25,7 @@ from kivy.uix.screenmanager import Screen
 from kivy.uix.slider import Slider
 from kivy.uix.widget import Widget
 
-from app.story.model import Story
+from app.story import Story
 from app.ui.table_view import TableView
 from app.ui.widgets import BUTTON_DP, IconButton, filled
 

@@ -15,8 +15,7 @@ from kivy.metrics import dp
 from kivy.properties import NumericProperty, ObjectProperty, OptionProperty, StringProperty
 from kivy.uix.widget import Widget
 
-from app.story.gestures import thin
-from app.story.model import TABLE_DEPTH_M, TABLE_WIDTH_M, Scene
+from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Scene, thin
 from app.ui.art import CHARACTER_COLOURS, draw_background, draw_character_badge, draw_icon
 
 #: A sketch drawn faster than this (table metres per second) is slowed down to it, so a

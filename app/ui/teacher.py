@@ -20,8 +20,9 @@ from kivy.uix.scrollview import ScrollView
 from kivy.uix.textinput import TextInput
 from kivy.uix.widget import Widget
 
-from app.services.calibration_wizard import CalibrationWizard
-from app.story.storage import StorageError
+from app.services import CalibrationWizard
+from app.story import StorageError
+from app.ui.import_picker import ImportPicker
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
 
@@ -227,7 +228,6 @@ class TeacherScreen(Screen):
     def import_packages(self) -> None:
         """Open the package picker (big tiles of the .zip files found in the inbox, the
         profile's import folder and downloads); a tap imports one."""
-        from app.ui.import_picker import ImportPicker
         app = App.get_running_app()
         app.inbox_dir.mkdir(parents=True, exist_ok=True)
         self.import_picker = ImportPicker(on_done=self._report)

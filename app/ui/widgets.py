@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from kivy.graphics import Color, Line, RoundedRectangle
+from kivy.graphics import Color, Line, Rectangle, RoundedRectangle
 from kivy.metrics import dp
 from kivy.properties import BooleanProperty, ListProperty, StringProperty
 from kivy.uix.behaviors import ButtonBehavior
@@ -92,7 +92,6 @@ def big_label(text: str, size: float = 22, colour: tuple[float, ...] = (0.1, 0.1
 
 def filled(widget: Widget, rgba: tuple[float, float, float, float]) -> Widget:
     """Give a layout a solid background colour that follows its size."""
-    from kivy.graphics import Rectangle
     with widget.canvas.before:
         Color(*rgba)
         rect = Rectangle(pos=widget.pos, size=widget.size)

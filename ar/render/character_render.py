@@ -13,31 +13,19 @@
 
 Motions are in StoryBeam's Y-up world, which is this module's *scene frame*: metres,
 origin at the board centre on the table, +X = board +x, +Z = board +y (see
-:mod:`ar.render.projector_view`). So a path drawn in board coordinates is shifted by the board
-centre and used as (X, Z).
+:mod:`ar.render.projector_view`; :func:`ar.render.projector_view.board_to_scene_points`
+maps board-frame points into it).
 """
 from __future__ import annotations
 
-import os
+import numpy as np
+import pyrender
+import trimesh
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-
-import numpy as np  # noqa: E402
-import pyrender  # noqa: E402
-import trimesh  # noqa: E402
-
-from ar.render.characters import Character  # noqa: E402
-from ar.geometry import look_at  # noqa: E402
-from ar.render.projector_view import ProjectorRenderer  # noqa: E402
-from ar.synthetic import PinholeModel  # noqa: E402
-from retrieval.motion import Motion  # noqa: E402
-
-VIEWS = ("projector", "camera", "overhead")
-
-
-def board_path_to_scene(points_board: np.ndarray, board_centre: np.ndarray) -> np.ndarray:
-    """(N, 2) board-plane points (metres, board frame) -> (N, 2) scene (X, Z)."""
-    return np.asarray(points_board, np.float64)[:, :2] - np.asarray(board_centre, np.float64)[:2]
+from ar import PinholeModel, look_at
+from ar.render.characters import Character
+from ar.render.projector_view import ProjectorRenderer
+from retrieval.motion import Motion
 
 
 def scaled_model(model: PinholeModel, width: int, height: int) -> PinholeModel:
@@ -51,7 +39,8 @@ def scaled_model(model: PinholeModel, width: int, height: int) -> PinholeModel:
     return PinholeModel(K, model.dist.copy(), int(width), int(height))
 
 
-def _material(colour) -> pyrender.MetallicRoughnessMaterial:
+def material(colour) -> pyrender.MetallicRoughnessMaterial:
+    """A matte, non-metallic material of ``colour`` (RGB 0..255)."""
     rgb = np.asarray(colour, np.float64) / 255.0
     return pyrender.MetallicRoughnessMaterial(baseColorFactor=[*rgb, 1.0], metallicFactor=0.0, roughnessFactor=0.7)
 
@@ -67,7 +56,7 @@ class CharacterRig:
         self.character = character
         self.names = []
         for k, part in enumerate(character.parts):
-            mesh = pyrender.Mesh.from_trimesh(part.mesh, material=_material(part.colour), smooth=True)
+            mesh = pyrender.Mesh.from_trimesh(part.mesh, material=material(part.colour), smooth=True)
             name = f"{prefix}/{k}:{part.name}"
             renderer.add(name, mesh)
             self.names.append(name)
@@ -107,6 +96,19 @@ def path_ribbon(points_xz: np.ndarray, width: float = 0.006, lift: float = 0.000
     return mesh
 
 
+def add_table(renderer: ProjectorRenderer, width_m: float, depth_m: float, colour, name: str = "table") -> None:
+    """A table top ``width_m`` along scene X by ``depth_m`` along Z, 1 cm thick, its top
+    surface at y = 0 (just under anything standing on it), centred on the scene origin."""
+    table = trimesh.creation.box(extents=(width_m, 0.01, depth_m))
+    table.apply_translation([0, -0.0051, 0])
+    renderer.add(name, pyrender.Mesh.from_trimesh(table, material=material(colour)))
+
+
+def add_path(renderer: ProjectorRenderer, name: str, points_xz: np.ndarray, colour, width: float = 0.006) -> None:
+    """The child's drawn path as a flat ribbon of ``colour`` on the table (:func:`path_ribbon`)."""
+    renderer.add(name, pyrender.Mesh.from_trimesh(path_ribbon(points_xz, width=width), material=material(colour)))
+
+
 class OverheadView:
     """An authoring preview: grey table, the path, the character; camera above-front."""
 
@@ -115,11 +117,9 @@ class OverheadView:
         f = 0.9 * width
         K = np.array([[f, 0, width / 2 - 0.5], [0, f, height / 2 - 0.5], [0, 0, 1.0]])
         self.renderer = ProjectorRenderer(width, height, K, ambient=0.45, light_intensity=3.5)
-        table = trimesh.creation.box(extents=(1.2, 0.01, 1.0))
-        table.apply_translation([0, -0.0051, 0])
-        self.renderer.add("table", pyrender.Mesh.from_trimesh(table, material=_material((150, 150, 160))))
+        add_table(self.renderer, 1.2, 1.0, (150, 150, 160))
         if path_xz is not None and len(path_xz) > 1:
-            self.renderer.add("path", pyrender.Mesh.from_trimesh(path_ribbon(path_xz), material=_material((255, 230, 0))))
+            add_path(self.renderer, "path", path_xz, (255, 230, 0))
         self.rig = CharacterRig(self.renderer, character)
         self.renderer.set_view(look_at(np.asarray(eye, float), np.asarray(target, float), np.array([0.0, 1.0, 0.0])))
 

@@ -9,6 +9,8 @@ colours, big eyes.
 
 Units: parts are built in metres in the joint's local frame (the skeleton's native unit
 is centimetres; :data:`CM` converts). The character faces +Z with Y up in its rest pose.
+:func:`save_character` writes a rest-pose preview (``storybeam characters`` writes all of
+them to ``assets/characters``).
 """
 from __future__ import annotations
 
@@ -20,8 +22,7 @@ import numpy as np
 import trimesh
 
 from retrieval.errors import StoryBeamError
-from retrieval.motion import global_transforms
-from retrieval.motion import Motion, Skeleton
+from retrieval.motion import Motion, Skeleton, global_transforms
 from retrieval.animation import BodyProportions, canonical_skeleton, sole_level
 
 CM = 0.01
@@ -283,22 +284,3 @@ def save_character(character: Character, folder: str | Path) -> Path:
     path = folder / f"{character.name}.json"
     path.write_text(json.dumps(meta, indent=2))
     return path
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m ar.characters [--out assets/characters] [--height 0.12]``: write every
-    character's rest-pose mesh and metadata (previews for other tools; the app builds
-    characters in code)."""
-    import argparse
-
-    p = argparse.ArgumentParser(prog="python -m ar.characters", description=main.__doc__)
-    p.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[2] / "assets" / "characters")
-    p.add_argument("--height", type=float, default=DEFAULT_HEIGHT_M)
-    args = p.parse_args(argv)
-    for name in CHARACTER_NAMES:
-        print(save_character(build_character(name, args.height), args.out))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

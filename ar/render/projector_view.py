@@ -22,18 +22,13 @@ render only from one dedicated render thread (the app's pattern).
 """
 from __future__ import annotations
 
-import os
 import threading
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+import numpy as np
+import pyrender
+import trimesh
 
-import numpy as np  # noqa: E402
-import pyrender  # noqa: E402
-import trimesh  # noqa: E402
-
-from ar.boards import Board  # noqa: E402
-from ar.errors import CalibrationError  # noqa: E402
-from ar.geometry import invert, make_transform  # noqa: E402
+from ar import Board, CalibrationError, invert, make_transform
 
 #: OpenCV camera axes (x right, y down, z forward) -> OpenGL camera axes (x right, y up, z back)
 CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])

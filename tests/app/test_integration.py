@@ -16,8 +16,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from app.story.demo_story import _curve
-from app.story.model import Character, MotionChoice, Scene, Story
+from app.story import Character, MotionChoice, Scene, Story, wavy_path
 
 REPO = Path(__file__).resolve().parents[2]
 DRIVER = REPO / "tests" / "support" / "ui_driver.py"
@@ -48,9 +47,9 @@ def _rgb(path: Path) -> np.ndarray:
 def _two_scene_story() -> Story:
     return Story(title="two scenes", arc="free", scenes=[
         Scene(id="s1", background="grass", part="beginning", characters=[
-            Character(id="c1", kind="robot", path=_curve(0.2, 0.3, 1.0, 0.5, 0.05, 1.6), motion=MotionChoice("walk"))]),
+            Character(id="c1", kind="robot", path=wavy_path(0.2, 0.3, 1.0, 0.5, 0.05, 1.6), motion=MotionChoice("walk"))]),
         Scene(id="s2", background="night", part="end", characters=[
-            Character(id="c2", kind="animal", path=_curve(1.0, 0.5, 0.2, 0.4, 0.05, 1.2), motion=MotionChoice("run"))]),
+            Character(id="c2", kind="animal", path=wavy_path(1.0, 0.5, 0.2, 0.4, 0.05, 1.2), motion=MotionChoice("run"))]),
     ])
 
 
@@ -192,7 +191,8 @@ def test_stage_keeps_the_show_going_when_a_live_rig_fails():
     renderer carries on with the synthetic rig instead of killing the render thread."""
     pytest.importorskip("pyrender")
     from app.story.demo_story import demo_story
-    from app.scene.stage import AppRenderer, StageError, StageJob, SyntheticRig
+    from app.scene import AppRenderer, StageJob
+    from app.scene.stage import StageError, SyntheticRig
     from ar.boards import DEFAULT_BOARD_SPEC, Board
 
     class UnpluggedRig(SyntheticRig):

@@ -327,7 +327,6 @@ def language_steps(app):
 
 
 def teacher_steps(app):
-    home = app.sm.get_screen("home")
     yield lambda: result.update(teacher_button=[*centre(app.sm.get_screen("home").teacher_button), app.sm.current])
     yield touching(lambda: tap(app.sm.get_screen("home").teacher_button), until=lambda: app.sm.current == "pin")
     yield lambda: result.update(after_tap=app.sm.current)
@@ -634,7 +633,7 @@ if __name__ == "__main__":
             zf.writestr("story.json", "{}")
     factory = None
     if SCENARIO in ("play3d", "projector3d"):
-        from app.scene.stage import app_renderer_factory
+        from app.scene import app_renderer_factory
         factory = app_renderer_factory(DB.parent)
     catalog = MotionCatalog(Path(os.environ["STORYBEAM_TEST_MOTIONS"]), build_index=False) \
         if os.environ.get("STORYBEAM_TEST_MOTIONS") else MotionCatalog(build_index=False)

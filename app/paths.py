@@ -1,0 +1,28 @@
+"""Where the checkout's bundled files are: the one place that turns ``__file__`` into paths.
+
+Everything the app and its commands read from the repository (the motion library, the
+font, the UI art, the generated character previews) is named here, so moving a folder
+means editing one line. ``ar/`` and ``retrieval/`` never import this module (they are
+lower layers): they take their paths as arguments, and the app passes these.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+#: the checkout (the folder holding ``app/``, ``ar/``, ``retrieval/`` and ``assets/``)
+REPO_ROOT = Path(__file__).resolve().parent.parent
+ASSETS = REPO_ROOT / "assets"
+#: the bundled motion library (``labels.csv`` and the clips it lists)
+MOTIONS_DIR = ASSETS / "motions"
+#: rest-pose previews of the characters (``storybeam characters`` writes them)
+CHARACTERS_DIR = ASSETS / "characters"
+#: the launcher icon and presplash (``python -m app.ui.make_icon`` writes them)
+UI_ASSETS = ASSETS / "ui"
+FONTS_DIR = ASSETS / "fonts"
+#: the M+ font (Latin, kana and kanji) every label uses
+FONT_PATH = FONTS_DIR / "Mplus1-Medium.otf"
+#: printable boards (``storybeam board`` writes them)
+BOARDS_DIR = ASSETS / "boards"
+
+__all__ = ["REPO_ROOT", "ASSETS", "MOTIONS_DIR", "CHARACTERS_DIR", "UI_ASSETS", "FONTS_DIR", "FONT_PATH",
+           "BOARDS_DIR"]
