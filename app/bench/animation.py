@@ -1,6 +1,7 @@
-"""Measure the animation numbers quoted in docs/animation.md.
+"""Measure the animation numbers quoted in docs/animation.md (``storybeam bench animation``).
 
-    python -m app.animation_bench [--json out/animation_bench.json] [--shared ../shared/data/cmu]
+    storybeam bench animation [--json out/animation_bench.json] [--shared ../shared/data/cmu]
+                              [--characters robot,cat,kid]
 
 * path following of every bundled walk and run on a straight 60 cm path and on an
   S-curve (60 cm long, 8 cm amplitude), per character, at 12 cm: mean path error (cm)
@@ -14,38 +15,52 @@
 """
 from __future__ import annotations
 
-import argparse
 import csv
-import json
-import os
 import time
 from pathlib import Path
+from typing import Callable
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+import numpy as np
 
-import numpy as np  # noqa: E402
+from app.bench.retrieval import SHARED_CMU
+from app.paths import MOTIONS_DIR
+from ar import default_projector, look_at
+from ar.render import CHARACTER_NAMES, CharacterRig, ProjectorRenderer, build_character, scaled_model
+from retrieval.animation import (
+    canonical_skeleton,
+    code_transition_cost,
+    follow_path,
+    foot_skate_cm_per_m,
+    judge_transition,
+    path_error_cm,
+    retarget,
+    s_curve_path,
+    straight_path,
+)
+from retrieval.codes import Quantizer
+from retrieval.errors import StoryBeamError
+from retrieval.features import motion_features
+from retrieval.motion.formats import load_motion
 
-REPO = Path(__file__).resolve().parents[2]
-MOTIONS = REPO / "assets" / "motions"
 
 
-def _rows(label_set=("walk", "run")):
-    return [r for r in csv.DictReader(open(MOTIONS / "labels.csv")) if r["label"] in label_set]
+def _labels(folder: Path) -> list[dict[str, str]]:
+    """The rows of ``folder/labels.csv``."""
+    with open(folder / "labels.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _rows(label_set: tuple[str, ...] = ("walk", "run")) -> list[dict[str, str]]:
+    return [r for r in _labels(MOTIONS_DIR) if r["label"] in label_set]
 
 
 def path_following(characters=("robot", "cat", "kid")) -> list[dict]:
-    from ar.render.characters import build_character
-    from retrieval.animation import foot_skate_cm_per_m, path_error_cm
-    from retrieval.motion.formats import load_motion
-    from retrieval.animation import follow_path, s_curve_path, straight_path
-    from retrieval.animation import canonical_skeleton, retarget
-
     out = []
     scale_human = 1.7 / 0.12
     targets = [(c, build_character(c).skeleton, 1.0) for c in characters]
     targets.append(("human-1.7m", canonical_skeleton(height_m=1.7), scale_human))
     for row in _rows():
-        src = load_motion(MOTIONS / row["file"])
+        src = load_motion(MOTIONS_DIR / row["file"])
         for name, sk, s in targets:
             m = retarget(src, sk)
             for shape, path in (("straight", straight_path(0.6 * s)), ("S", s_curve_path(0.6 * s, 0.08 * s))):
@@ -62,16 +77,9 @@ def path_following(characters=("robot", "cat", "kid")) -> list[dict]:
 
 
 def transitions() -> list[dict]:
-    from ar.render.characters import build_character
-    from retrieval.features import motion_features
-    from retrieval.motion.formats import load_motion
-    from retrieval.codes import Quantizer
-    from retrieval.animation import retarget
-    from retrieval.animation import code_transition_cost, judge_transition
-
     sk = build_character("robot").skeleton
-    rows = list(csv.DictReader(open(MOTIONS / "labels.csv")))
-    clips = {r["trial"]: retarget(load_motion(MOTIONS / r["file"]), sk) for r in rows}
+    rows = _labels(MOTIONS_DIR)
+    clips = {r["trial"]: retarget(load_motion(MOTIONS_DIR / r["file"]), sk) for r in rows}
     q = Quantizer.fit(np.concatenate([motion_features(m) for m in clips.values()]), 6)
     cost = code_transition_cost(q)
     by_label: dict[str, list[str]] = {}
@@ -92,12 +100,8 @@ def transitions() -> list[dict]:
 
 
 def retarget_shared(cmu: Path) -> list[dict]:
-    from ar.render.characters import build_character
-    from retrieval.motion.formats import load_motion
-    from retrieval.animation import retarget
-
     sk = build_character("robot").skeleton
-    rows = list(csv.DictReader(open(cmu / "labels.csv")))
+    rows = _labels(cmu)
     seen, out = set(), []
     for r in rows:
         key = r["skeleton"] or "CC_Base BVH"
@@ -112,17 +116,8 @@ def retarget_shared(cmu: Path) -> list[dict]:
 
 
 def render_timing(n: int = 60, size=(640, 480)) -> dict:
-    from ar.render.character_render import CharacterRig, scaled_model
-    from ar.render.characters import build_character
-    from ar.geometry import look_at
-    from ar.render.projector_view import ProjectorRenderer
-    from ar.synthetic import default_projector
-    from retrieval.motion.formats import load_motion
-    from retrieval.animation import follow_path, straight_path
-    from retrieval.animation import retarget
-
     ch = build_character("robot")
-    m = follow_path(retarget(load_motion(MOTIONS / "bvh" / "02_01.bvh"), ch.skeleton), straight_path(0.2, start=(-0.1, 0))).motion
+    m = follow_path(retarget(load_motion(MOTIONS_DIR / "bvh" / "02_01.bvh"), ch.skeleton), straight_path(0.2, start=(-0.1, 0))).motion
     model = scaled_model(default_projector(), *size)
     r = ProjectorRenderer(size[0], size[1], model.K)
     rig = CharacterRig(r, ch)
@@ -152,34 +147,49 @@ def _summary(pf: list[dict], tr: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m app.animation_bench", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--json", type=Path, default=Path("out/animation_bench.json"))
-    p.add_argument("--shared", type=Path, default=REPO.parent / "shared" / "data" / "cmu")
-    p.add_argument("--characters", default="robot,cat,kid")
-    args = p.parse_args(argv)
-    from tqdm import tqdm
+def check_characters(characters: tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """``characters`` as a tuple; :class:`StoryBeamError` if it is empty or names an
+    unknown character."""
+    characters = tuple(characters)
+    unknown = [c for c in characters if c not in CHARACTER_NAMES]
+    if unknown or not characters:
+        raise StoryBeamError(f"unknown character(s) {', '.join(unknown) or '(none given)'}; "
+                             f"choose from {', '.join(CHARACTER_NAMES)}")
+    return characters
 
-    steps = ["path following", "transitions", "retarget shared", "render timing"]
+
+#: The steps of one run, in order (the progress bar counts them).
+STEPS = ("path following", "transitions", "retarget shared", "render timing")
+
+
+def run_animation_bench(shared: Path = SHARED_CMU,
+                        characters: tuple[str, ...] = ("robot", "cat", "kid"),
+                        progress: Callable[[int, int], None] | None = None) -> dict:
+    """Run every step of the module docstring; returns the JSON-ready result
+    (``path_following``, ``transitions``, ``retarget_shared``, ``render``).
+    ``progress(done, total)`` is called after each step. Unknown characters are a
+    :class:`StoryBeamError` before any work starts."""
+    characters = check_characters(characters)
+    shared = Path(shared)
     result: dict = {}
-    for step in tqdm(steps, desc="animation bench", unit="step"):
+    for done, step in enumerate(STEPS, 1):
         if step == "path following":
-            result["path_following"] = path_following(tuple(args.characters.split(",")))
+            result["path_following"] = path_following(characters)
         elif step == "transitions":
             result["transitions"] = transitions()
         elif step == "retarget shared":
-            result["retarget_shared"] = retarget_shared(args.shared) if (args.shared / "labels.csv").is_file() else []
+            result["retarget_shared"] = retarget_shared(shared) if (shared / "labels.csv").is_file() else []
         else:
             result["render"] = render_timing()
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(result, indent=1))
-    print(_summary(result["path_following"], result["transitions"]))
-    print("render:", json.dumps(result["render"]))
-    print("retargeted shared skeletons:", len(result["retarget_shared"]))
-    print(f"wrote {args.json}")
-    return 0
+        if progress:
+            progress(done, len(STEPS))
+    return result
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
+def format_summary(result: dict) -> str:
+    """The tables printed after a run: path following, transitions, render, shared skeletons."""
+    return "\n".join([
+        _summary(result["path_following"], result["transitions"]),
+        "render: " + ", ".join(f"{k} {v:.1f}" if isinstance(v, float) else f"{k} {v}" for k, v in result["render"].items()),
+        f"retargeted shared skeletons: {len(result['retarget_shared'])}",
+    ])

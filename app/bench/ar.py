@@ -21,8 +21,11 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
+import cv2
 import numpy as np
+from PIL import Image
 
 from ar.boards import Board, DEFAULT_BOARD_SPEC
 from ar.calibration import (CameraCalibration, ProjectorCalibration, ProjectorCalibrationSequence,
@@ -30,7 +33,8 @@ from ar.calibration import (CameraCalibration, ProjectorCalibration, ProjectorCa
 from ar.closed_loop import LandingCheck
 from ar.filtering import TRACKING, PoseKalmanFilter, PoseOneEuroFilter, PoseTracker
 from ar.geometry import pose_error, rotation_angle_deg
-from ar.pose import estimate_board_pose
+from ar.pose import draw_pose, estimate_board_pose
+from ar.render import ProjectorRenderer, add_test_scene
 from ar.synthetic import (Degradation, SyntheticCamera, TrajectoryConfig, calibration_poses,
                           capture_projector_sequence, handheld_trajectory)
 
@@ -121,9 +125,6 @@ def run_bench(cfg: BenchConfig, progress=None, examples: dict | None = None) -> 
     ``examples``, when a dict, receives per-condition example images (camera view with
     axes, projector view, camera view with the projection) from the middle frame.
     """
-    from ar.pose import draw_pose
-    from ar.render.projector_view import ProjectorRenderer, add_test_scene
-
     board = Board(cfg.board_spec)
     cam = SyntheticCamera(board)
     if cfg.estimated_calibration:
@@ -227,3 +228,26 @@ def format_table(result: dict) -> str:
             f"| {c['landing_error_mm_median']:.2f} / {c['landing_error_mm_p95']:.2f} "
             f"| {c['detect_pose_ms_median']:.1f} | {c['render_ms_median']:.1f} |")
     return "\n".join(lines)
+
+
+#: conditions whose middle frame is written by ``--examples`` (the ones docs/ar.md shows)
+EXAMPLE_CONDITIONS = ("clean", "occlusion_30", "low_light")
+
+
+def write_examples(folder: Path, examples: dict) -> list[Path]:
+    """Half-size, 64-colour PNGs (small enough to commit) of the example frames that
+    :func:`run_bench` collected, one ``ar_<condition>_<kind>.png`` per image of the
+    :data:`EXAMPLE_CONDITIONS`; returns the paths written."""
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for cond, images in examples.items():
+        if cond not in EXAMPLE_CONDITIONS:
+            continue
+        for kind, img in images.items():
+            rgb = img if kind == "projector_view" else img[..., ::-1]  # renders are RGB, camera frames BGR
+            small = cv2.resize(rgb, (rgb.shape[1] // 2, rgb.shape[0] // 2), interpolation=cv2.INTER_AREA)
+            im = Image.fromarray(small).quantize(colors=64, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+            path = folder / f"ar_{cond}_{kind}.png"
+            im.save(path, optimize=True)
+            written.append(path)
+    return written

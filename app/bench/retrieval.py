@@ -27,17 +27,21 @@ from typing import Sequence
 import numpy as np
 from tqdm import tqdm
 
-from retrieval.codes import DiffTable, table_bytes
+from app.bench.scale_library import build_scale_library
+from app.paths import MOTIONS_DIR, REPO_ROOT
 from app.progress import progress_bar
+from retrieval.codes import DiffTable, Quantizer, table_bytes
+from retrieval.dtw import HAVE_NUMBA, dtw_codes
+from retrieval.dtw.jit import numba
 from retrieval.errors import StoryBeamError
-from retrieval.experiment import evaluate, make_matcher, stratified_folds
-from retrieval.search import FastSearcher, SearchStats, warm_up as warm_up_fast
-from retrieval.experiment import FastMatcher, stack_frames
-from retrieval.library import Clip
-from retrieval.codes import Quantizer
+from retrieval.experiment import FastMatcher, evaluate, make_matcher, stack_frames, stratified_folds
+from retrieval.library import Clip, load_dataset
+from retrieval.search import FastSearcher, SearchStats
+from retrieval.search import warm_up as warm_up_fast
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-BUNDLED_LIBRARY = REPO_ROOT / "assets" / "motions"
+#: the bundled library (the fallback when the shared CMU set is absent)
+BUNDLED_LIBRARY = MOTIONS_DIR
+#: the shared CMU set beside the checkout ($STORYBEAM_SHARED_DATA/cmu)
 SHARED_CMU = Path(os.environ.get("STORYBEAM_SHARED_DATA", REPO_ROOT.parent / "shared" / "data")) / "cmu"
 
 #: Protocol rows: (method name, label printed in the table).
@@ -65,7 +69,7 @@ class DtaidistanceMatcher:
 
     def __init__(self):
         try:
-            from dtaidistance import dtw_ndim
+            from dtaidistance import dtw_ndim  # optional: dtaidistance (a speed peer only, not a dependency)
         except ImportError as exc:
             raise StoryBeamError(f"dtaidistance is not installed: {exc}") from None
         self._distance = dtw_ndim.distance
@@ -82,8 +86,6 @@ class DtaidistanceMatcher:
 
 def load_clips(data: str | Path | None, fps: float, progress: bool) -> tuple[list[Clip], str, str | None]:
     """Clips of ``data``, else the shared CMU set, else the bundled library (with a note)."""
-    from retrieval.library import load_dataset
-
     note = None
     if data is None:
         if (SHARED_CMU / "labels.csv").is_file():
@@ -116,9 +118,8 @@ def _matcher_factory(band_frames: int, registry: list):
     return factory
 
 
-def _set_threads(n: int | None) -> int:
-    from retrieval.dtw.jit import HAVE_NUMBA, numba
-
+def set_threads(n: int | None) -> int:
+    """Set numba's thread count (``None``: all of them); returns the count (1 without numba)."""
     if not HAVE_NUMBA:
         return 1
     if n is None:
@@ -139,8 +140,6 @@ def _latencies(searcher: FastSearcher, queries: Sequence[np.ndarray], parallel: 
 
 
 def _seed_latencies(library: Sequence[np.ndarray], table, queries: Sequence[np.ndarray]) -> np.ndarray:
-    from retrieval.dtw import dtw_codes
-
     out = []
     for q in queries:
         t = time.perf_counter()
@@ -153,8 +152,6 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
                         quick: bool = False, dims: int = 6, folds: int = 3, seed: int = 0,
                         plot: str | Path | None = None, progress: bool = True) -> dict:
     """Everything in the module docstring; returns the JSON-ready result dictionary."""
-    from retrieval.dtw import HAVE_NUMBA
-
     if not HAVE_NUMBA:
         raise StoryBeamError("the retrieval benchmark needs numba (it compares the compiled kernels)")
     started = time.perf_counter()
@@ -163,12 +160,12 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
     clips, source, note = load_clips(data, fps, progress)
     if note:
         print(note)
-    all_threads = _set_threads(None)
+    all_threads = set_threads(None)
     warm_up_fast()
     band_frames = int(round(0.5 * fps))
     registry: list[FastMatcher] = []
     methods = [m for m, _ in PROTOCOL_ROWS] + [m for m, _ in ABLATION_ROWS]
-    _set_threads(1)  # the protocol compares single-core searches (fast_parallel sets its own)
+    set_threads(1)  # the protocol compares single-core searches (fast_parallel sets its own)
     # fast_parallel needs all threads while it runs: evaluate() runs methods fold by fold,
     # so the thread count is switched by a thin wrapper around its distances()
     factory = _matcher_factory(band_frames, registry)
@@ -179,11 +176,11 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
             inner = m.distances
 
             def distances(query):
-                _set_threads(all_threads)
+                set_threads(all_threads)
                 try:
                     return inner(query)
                 finally:
-                    _set_threads(1)
+                    set_threads(1)
             m.distances = distances
         return m
 
@@ -204,8 +201,6 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
     fast_s = protocol["fast"]["seconds"]
 
     # ---------------------------------------------------------------- scale
-    from app.bench.scale_library import build_scale_library
-
     scale_clips = clips if scale_fps == fps else load_clips(source, scale_fps, progress)[0]
     parts = stratified_folds([c.label for c in scale_clips], folds, seed)
     query_idx = parts[0]
@@ -221,11 +216,11 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
     queries = [quant.encode(scale_clips[i].features) for i in query_idx]
     if quick:
         queries = queries[:5]
-    _set_threads(1)
+    set_threads(1)
     one = _latencies(searcher, queries, False, progress, "1-NN latency, 1 core")
-    _set_threads(all_threads)
+    set_threads(all_threads)
     many = _latencies(searcher, queries, True, progress, f"1-NN latency, {all_threads} cores")
-    _set_threads(1)
+    set_threads(1)
     sizes = sorted({s for s in (30, 100, 300, 1000, 3000) if s < lib.clips} | {lib.clips})
     curve = []
     seed_table = quant.table()
@@ -235,7 +230,7 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
         seed_ms = _seed_latencies(lib.codes[:n], seed_table, queries[:3])
         curve.append({"clips": n, "hours": sum(len(c) for c in lib.codes[:n]) / lib.fps / 3600,
                       "fast_ms_median": float(np.median(ms)), "seed_ms_median": float(np.median(seed_ms))})
-    _set_threads(all_threads)
+    set_threads(all_threads)
     plot_path = plot_latency_curve(curve, plot) if plot else None
 
     out = {
@@ -274,10 +269,10 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
 
 
 def plot_latency_curve(curve: list[dict], path: str | Path) -> Path:
-    import matplotlib
+    import matplotlib  # optional: matplotlib (only for --plot)
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # optional: matplotlib (only for --plot)
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -69,6 +69,7 @@ def _parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args: argparse.Namespace) -> int:
+    # deferred: the story store (sqlite, numpy) loads only when the app launches, not for `storybeam --help`
     from app.story.storage import ProfileStore, StorageError, default_profile_path
 
     width, height = _parse_size(args.size)
@@ -81,12 +82,13 @@ def run(args: argparse.Namespace) -> int:
     demo = args.demo_story or (screenshot is not None and not args.story)
     screen = args.screen or ("editor" if (args.story or demo) else None)
 
-    from app.ui.env import prepare_kivy_env
+    from app.ui.env import prepare_kivy_env  # deferred: the UI layer loads only when the app launches
     prepare_kivy_env(headless=screenshot is not None, width=width, height=height)
+    # deferred: Kivy reads its environment at import, so it comes after prepare_kivy_env()
     from kivy.clock import Clock
-    from kivy.core.window import Window
+    from kivy.core.window import Window  # deferred: after prepare_kivy_env() (opens the window)
 
-    from app.ui.app import StoryBeamApp
+    from app.ui.app import StoryBeamApp  # deferred: imports Kivy, so after prepare_kivy_env()
 
     result = {"first_frame_s": None, "error": None}
 
@@ -119,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
                                       and importlib.util.find_spec("pyrender") is not None)
     factory = None
     if use_3d:  # the Play preview and the projector stage, on one render thread
-        from app.scene.stage import app_renderer_factory
+        from app.scene.stage import app_renderer_factory  # deferred: pyrender/OpenGL only for the 3-D preview
         factory = app_renderer_factory(db.parent)
     app = _LaunchedApp(db, lang=args.lang, story_id=args.story, demo=demo, start_screen=screen,
                        renderer_factory=factory)

@@ -1,34 +1,77 @@
-"""`storybeam bench TARGET`: benchmarks, one sub-target each.
+"""`storybeam bench TARGET`: every benchmark and profile, one sub-target each.
 
-``storybeam bench retrieval [--json OUT] [--quick]`` runs the retrieval speed benchmark
-(:mod:`app.bench.retrieval`): the paper protocol for the fast search, the seed's
-method, exact DTW and dtaidistance side by side, the ablations, 1-NN latency over a
-CMU-sized derived library, and memory. Other targets join by adding an entry to
-:data:`TARGETS`.
+Every target prints its table and, with ``--json OUT``, writes its full result as JSON.
+The harnesses live in :mod:`app.bench`; a target joins by adding an ``_add_*`` function
+to :data:`TARGETS`. The harness modules are imported only when their target runs, so
+``storybeam --help`` stays light.
 """
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+from typing import Callable
 
 from app.commands.output import write_json_report
+from retrieval.errors import StoryBeamError
 
 
-def _add_retrieval(sub) -> None:
-    p = sub.add_parser("retrieval", help="retrieval speed: paper protocol, ablations, library-scale latency",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def _parser(sub: argparse._SubParsersAction, name: str, help: str, doc: str, func: Callable[[argparse.Namespace], int],
+            json_default: str | None = None) -> argparse.ArgumentParser:
+    """A target's sub-parser with the ``--json`` option every target shares."""
+    p = sub.add_parser(name, help=help, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    where = f" (default {json_default})" if json_default else ""
+    p.add_argument("--json", dest="json_out", type=Path, default=json_default,
+                   help=f"write the full result as JSON here{where}")
+    p.set_defaults(func=func)
+    return p
+
+
+def _at_least(minimum: int) -> Callable[[str], int]:
+    """An argparse type: a whole number of at least ``minimum`` (a usage error otherwise)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        return value
+    parse.__name__ = "int"
+    return parse
+
+
+def _fps(text: str) -> float:
+    """An argparse type: a positive frame rate (a usage error otherwise)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0:  # also rejects nan
+        raise argparse.ArgumentTypeError(f"a frame rate must be positive, got {text}")
+    return value
+
+
+# ------------------------------------------------------------------------- retrieval
+RETRIEVAL_DOC = """Retrieval speed (app/bench/retrieval.py): the paper protocol for the fast search,
+the seed's method, exact DTW and dtaidistance side by side, the ablations, 1-NN latency
+over a CMU-sized derived library, and memory."""
+
+
+def _add_retrieval(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "retrieval", "retrieval speed: paper protocol, ablations, library-scale latency",
+                RETRIEVAL_DOC, _run_retrieval)
     p.add_argument("--data", help="labelled folder (default: the shared CMU set, else the bundled library)")
-    p.add_argument("--fps", type=float, default=120.0,
+    p.add_argument("--fps", type=_fps, default=120.0,
                    help="frame rate of the protocol, the same for every method (default 120: CMU's and the research's)")
-    p.add_argument("--scale-fps", type=float, default=30.0, help="frame rate of the scale library (default 30, the app's)")
-    p.add_argument("--dims", type=int, default=6)
+    p.add_argument("--scale-fps", type=_fps, default=30.0, help="frame rate of the scale library (default 30, the app's)")
+    p.add_argument("--dims", type=_at_least(1), default=6)
     p.add_argument("--quick", action="store_true", help="tiny run: bundled library, small scale library, 5 queries")
-    p.add_argument("--json", dest="json_out", help="write the results as JSON here")
     p.add_argument("--plot", help="write the latency-vs-library-size plot here (PNG)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=_run_retrieval)
 
 
-def _run_retrieval(args) -> int:
+def _run_retrieval(args: argparse.Namespace) -> int:
+    # deferred: app.bench.retrieval loads numba, tqdm and the whole retrieval stack
     from app.bench.retrieval import format_report, run_retrieval_bench
 
     out = run_retrieval_bench(args.data, fps=args.fps, scale_fps=args.scale_fps, quick=args.quick, dims=args.dims,
@@ -39,12 +82,217 @@ def _run_retrieval(args) -> int:
     return 0
 
 
-#: Benchmark targets: name -> function adding its sub-parser.
-TARGETS = {"retrieval": _add_retrieval}
+# ------------------------------------------------------------------------------- ar
+AR_DOC = """AR tracking accuracy, jitter, landing error and timing on synthetic camera frames
+(app/bench/ar.py): per condition (clean, blur, low light, occlusion, ...), the board pose
+error, detection rate, filtered jitter, projected landing error and detect/render times."""
 
 
-def register(subparsers) -> None:
-    p = subparsers.add_parser("bench", help="benchmarks (retrieval, ...)", description=__doc__,
+def _add_ar(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "ar", "AR tracking/rendering on synthetic camera frames", AR_DOC, _run_ar)
+    p.add_argument("--frames", type=_at_least(2), default=100, help="frames per condition (default 100)")
+    p.add_argument("--board", default=None, help="board spec (default: the ChArUco default board)")
+    p.add_argument("--conditions", default=None, help="comma-separated subset of conditions to run")
+    p.add_argument("--true-calibration", action="store_true",
+                   help="use the synthetic rig's true calibration instead of calibrating it first")
+    p.add_argument("--examples", type=Path, help="write example frames (ar_*.png) into this folder")
+    p.add_argument("--blur-sigma", type=float, default=1.5, help="Gaussian blur of the 'blur' condition, px (default 1.5)")
+    p.add_argument("--filter", choices=("kalman", "one-euro"), default="kalman",
+                   help="pose filter whose jitter is reported (default kalman)")
+    p.add_argument("--seed", type=int, default=0)
+
+
+def _run_ar(args: argparse.Namespace) -> int:
+    from tqdm import tqdm  # deferred: only the benchmarks draw bars
+
+    from app.bench.ar import (  # deferred: loads OpenCV and pyrender
+        BenchConfig,
+        default_conditions,
+        format_table,
+        run_bench,
+        write_examples,
+    )
+    from ar.boards import DEFAULT_BOARD_SPEC, Board  # deferred: loads OpenCV
+
+    conditions = default_conditions(blur_sigma=args.blur_sigma)
+    if args.conditions:
+        wanted = [c.strip() for c in args.conditions.split(",") if c.strip()]
+        known = {c.name for c in conditions}
+        unknown = [w for w in wanted if w not in known]
+        if unknown or not wanted:
+            raise StoryBeamError(f"unknown condition(s) {', '.join(unknown) or '(none given)'}; "
+                                 f"known: {', '.join(sorted(known))}")
+        conditions = [c for c in conditions if c.name in wanted]
+    spec = args.board or DEFAULT_BOARD_SPEC
+    Board(spec)  # validate early, before the long run
+    cfg = BenchConfig(frames=args.frames, board_spec=spec, estimated_calibration=not args.true_calibration,
+                      seed=args.seed, conditions=conditions, pose_filter=args.filter)
+    examples: dict | None = {} if args.examples else None
+    with tqdm(total=args.frames * len(conditions), unit="frame", desc="bench ar") as bar:
+        result = run_bench(cfg, progress=bar.update, examples=examples)
+    print(format_table(result))
+    cal = result["calibration"]
+    if "camera_fx_error_pct" in cal:
+        print(f"calibration: camera rms {cal['camera_rms_px']:.3f} px, fx error {cal['camera_fx_error_pct']:+.3f} %; "
+              f"projector rms {cal['projector_rms_px']:.3f} px, fx error {cal['projector_fx_error_pct']:+.3f} %; "
+              f"extrinsics {cal['extrinsics_rot_err_deg']:.3f} deg, {cal['extrinsics_trans_err_mm']:.2f} mm")
+    print(f"landing error (clean, median): {result['landing_error_mm_median']:.2f} mm; "
+          f"detect+pose {result['detect_pose_ms_median']:.1f} ms; render {result['render_ms_median']:.1f} ms (medians)")
+    if args.json_out:
+        write_json_report(args.json_out, result, indent=2)
+    if examples:
+        write_examples(args.examples, examples)
+        print(f"wrote example frames to {args.examples}")
+    return 0
+
+
+# ------------------------------------------------------------------------ animation
+ANIMATION_DOC = """The animation numbers quoted in docs/animation.md (app/bench/animation.py): path
+following and foot skate of every bundled walk and run per character (and at human
+scale), code-table transitions against random ones, retargeting of one clip per shared
+skeleton (when the shared CMU data is present), and the character render at 640x480."""
+
+
+def _add_animation(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "animation", "path following, foot skate, transitions, retargeting, render time",
+                ANIMATION_DOC, _run_animation, json_default="out/animation_bench.json")
+    p.add_argument("--shared", type=Path, default=None,
+                   help="shared CMU folder for the retargeting step (default ../shared/data/cmu; skipped if absent)")
+    p.add_argument("--characters", default="robot,cat,kid", help="comma-separated characters (default robot,cat,kid)")
+
+
+def _run_animation(args: argparse.Namespace) -> int:
+    from tqdm import tqdm  # deferred: only the benchmarks draw bars
+
+    from app.bench.animation import (  # deferred: loads pyrender and the retrieval stack
+        STEPS,
+        check_characters,
+        format_summary,
+        run_animation_bench,
+    )
+
+    characters = check_characters([c.strip() for c in args.characters.split(",") if c.strip()])
+    kw = {"shared": args.shared} if args.shared is not None else {}
+    with tqdm(total=len(STEPS), desc="bench animation", unit="step") as bar:
+        result = run_animation_bench(characters=characters, progress=lambda done, total: bar.update(1), **kw)
+    print(format_summary(result))
+    if args.json_out:
+        write_json_report(args.json_out, result)
+    return 0
+
+
+# ---------------------------------------------------------------------- dtw-kernels
+DTW_KERNELS_DOC = """Nanoseconds per DTW cell for StoryBeam's kernels, with dtaidistance's C code as a
+peer (app/bench/dtw_kernels.py): one pair of smooth 17-D random walks of --frames frames,
+each kernel warmed up once and timed --repeat times (median)."""
+
+
+def _add_dtw_kernels(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "dtw-kernels", "nanoseconds per DTW cell of each kernel", DTW_KERNELS_DOC, _run_dtw_kernels)
+    p.add_argument("--frames", type=_at_least(2), default=1000, help="frames of each clip (default 1000)")
+    p.add_argument("--repeat", type=_at_least(1), default=5, help="timed runs per kernel (default 5)")
+
+
+def _run_dtw_kernels(args: argparse.Namespace) -> int:
+    # deferred: app.bench.dtw_kernels loads numba and the DTW kernels
+    from app.bench.dtw_kernels import format_table, run_dtw_kernels_bench
+
+    result = run_dtw_kernels_bench(frames=args.frames, repeat=args.repeat)
+    print(format_table(result))
+    if args.json_out:
+        write_json_report(args.json_out, result)
+    return 0
+
+
+# ------------------------------------------------------------------------ motion-io
+MOTION_IO_DOC = """Time loading every motion listed in a folder's labels.csv (app/bench/motion_io.py):
+--repeat passes, the skeleton cache cleared before each, best pass reported."""
+
+
+def _add_motion_io(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "motion-io", "time loading every motion of a labelled folder", MOTION_IO_DOC, _run_motion_io)
+    p.add_argument("--data", type=Path, default=None,
+                   help="labelled folder (default: the shared CMU set, ../shared/data/cmu)")
+    p.add_argument("--repeat", type=_at_least(1), default=3, help="passes; the best is reported (default 3)")
+
+
+def _run_motion_io(args: argparse.Namespace) -> int:
+    # deferred: app.bench.motion_io loads the motion parsers
+    from app.bench.motion_io import DEFAULT_DATA, format_table, run_motion_io_bench
+
+    result = run_motion_io_bench(args.data or DEFAULT_DATA, repeat=args.repeat)
+    print(format_table(result))
+    if args.json_out:
+        write_json_report(args.json_out, result)
+    return 0
+
+
+# ------------------------------------------------------------------ numpy-retrieval
+NUMPY_RETRIEVAL_DOC = """The numpy-only search path (Android: no numba), app/bench/numpy_retrieval.py:
+3-fold 1-NN on a labelled folder, the fast exact search with and without the range-cover
+bound against the seed's method, all on the numpy back-end."""
+
+
+def _add_numpy_retrieval(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "numpy-retrieval", "the numpy-only (no numba) search against the seed's method",
+                NUMPY_RETRIEVAL_DOC, _run_numpy_retrieval)
+    p.add_argument("folder", nargs="?", default=None, help="labelled folder (default: the bundled library)")
+    p.add_argument("fps", nargs="?", type=_fps, default=30.0, help="frame rate (default 30)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _run_numpy_retrieval(args: argparse.Namespace) -> int:
+    # deferred: app.bench.numpy_retrieval loads the retrieval stack
+    from app.bench.numpy_retrieval import format_table, run_numpy_retrieval_bench
+
+    kw = {"folder": args.folder} if args.folder else {}
+    result = run_numpy_retrieval_bench(fps=args.fps, progress=not args.quiet, **kw)
+    print(format_table(result))
+    if args.json_out:
+        write_json_report(args.json_out, result)
+    return 0
+
+
+# -------------------------------------------------------------- fast-search-profile
+FAST_SEARCH_PROFILE_DOC = """Where the fast exact search spends its time, and what the range-cover bound buys
+(app/bench/fast_search_profile.py): the paper protocol's folds searched with the bound on
+and off (interleaved, answers must match), then the default search's stages timed."""
+
+
+def _add_fast_search_profile(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "fast-search-profile", "range-cover bound on/off, and the stages of the fast search",
+                FAST_SEARCH_PROFILE_DOC, _run_fast_search_profile)
+    p.add_argument("fps", nargs="?", type=_fps, default=120.0, help="frame rate (default 120)")
+    p.add_argument("--data", default=None, help="labelled folder (default: the shared CMU set, else the bundled library)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _run_fast_search_profile(args: argparse.Namespace) -> int:
+    # deferred: app.bench.fast_search_profile loads numba and the search kernels
+    from app.bench.fast_search_profile import format_report, run_fast_search_profile
+
+    result = run_fast_search_profile(args.data, fps=args.fps, progress=not args.quiet)
+    print(format_report(result))
+    if args.json_out:
+        write_json_report(args.json_out, result)
+    return 0
+
+
+#: Benchmark targets: name -> function adding its sub-parser (in `storybeam bench --help` order).
+TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
+    "retrieval": _add_retrieval,
+    "ar": _add_ar,
+    "animation": _add_animation,
+    "dtw-kernels": _add_dtw_kernels,
+    "motion-io": _add_motion_io,
+    "numpy-retrieval": _add_numpy_retrieval,
+    "fast-search-profile": _add_fast_search_profile,
+}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``bench`` and one sub-parser per entry of :data:`TARGETS`."""
+    p = subparsers.add_parser("bench", help="benchmarks: " + ", ".join(TARGETS), description=__doc__,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="bench_target", metavar="TARGET")
     for add in TARGETS.values():

@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from retrieval.errors import StoryBeamError
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -18,8 +20,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ar.boards import DEFAULT_BOARD_SPEC, Board, write_board
-    from retrieval.errors import StoryBeamError
+    from ar.boards import DEFAULT_BOARD_SPEC, Board, write_board  # deferred: OpenCV loads only for this command
 
     if not 72 <= args.dpi <= 1200:
         raise StoryBeamError(f"--dpi must be between 72 and 1200, got {args.dpi}")

@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 import argparse
-import os
+import tempfile
 from pathlib import Path
+
+from retrieval.errors import StoryBeamError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,15 +39,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_camera(args: argparse.Namespace) -> int:
-    from ar.boards import DEFAULT_BOARD_SPEC, Board
-    from ar.calibration import calibrate_camera, capture_from_camera, load_images
+    from ar.boards import DEFAULT_BOARD_SPEC, Board  # deferred: OpenCV loads only for this command
+    from ar.calibration import calibrate_camera, capture_from_camera, load_images  # deferred: OpenCV, as above
 
     board = Board(args.board or DEFAULT_BOARD_SPEC)
     truth = None
     if args.images:
         views = load_images(args.images)
     elif args.synthetic:
-        from ar.synthetic import SyntheticCamera, calibration_poses
+        from ar.synthetic import SyntheticCamera, calibration_poses  # deferred: the synthetic rig only for --synthetic
 
         cam = SyntheticCamera(board)
         views = [(f"synthetic_{i:02d}", cam.render(T)) for i, T in enumerate(calibration_poses(board, args.views))]
@@ -68,11 +70,10 @@ def run_camera(args: argparse.Namespace) -> int:
 
 
 def run_projector(args: argparse.Namespace) -> int:
-    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-    from ar.boards import DEFAULT_BOARD_SPEC, Board
+    from ar.boards import DEFAULT_BOARD_SPEC, Board  # deferred: OpenCV loads only for this command
+    # deferred: OpenCV loads only for this command
     from ar.calibration import (CameraCalibration, ProjectorCalibrationSequence, calibrate_camera,
                                 calibrate_projector_from_folder, extrinsics_error, write_capture)
-    from retrieval.errors import StoryBeamError
 
     board = Board(args.board or DEFAULT_BOARD_SPEC)
     sequence = ProjectorCalibrationSequence(board, n_steps=args.steps)
@@ -83,8 +84,7 @@ def run_projector(args: argparse.Namespace) -> int:
     if args.out is None:
         raise StoryBeamError("--out is required")
     if args.synthetic:
-        import tempfile
-
+        # deferred: the synthetic rig only for --synthetic
         from ar.synthetic import SyntheticCamera, calibration_poses, capture_projector_sequence
 
         cam = SyntheticCamera(board)

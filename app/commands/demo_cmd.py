@@ -8,6 +8,8 @@ import argparse
 import json
 from pathlib import Path
 
+from app.commands.render_cmd import parse_size
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("demo", help="end-to-end demo: retrieve, animate, render -> out/demo.mp4 + out/demo.json",
@@ -25,8 +27,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # deferred: the scene layer (pyrender, OpenGL, the motion library) loads only for this command
     from app.scene.demo_pipeline import DemoConfig, run_demo
-    from app.commands.render_cmd import parse_size
 
     w, h = parse_size(args.size)
     out = args.out_dir

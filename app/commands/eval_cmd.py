@@ -71,7 +71,8 @@ def format_table(results: dict, n_clips: int, seconds: float) -> str:
 
 
 def run(args) -> int:
-    from retrieval.library import load_dataset, read_labels
+    from retrieval.library import load_dataset, read_labels  # deferred: numpy/numba stack only for this command
+    # deferred: the experiment layer (numpy, numba kernels) only for this command
     from retrieval.experiment import METHODS, evaluate, plot_sweep, stratified_subset, sweep_dims
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]

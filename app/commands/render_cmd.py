@@ -6,6 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+from retrieval.errors import StoryBeamError
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("render", help="render the animated character (projector, camera or overhead view) to MP4/PNG",
@@ -27,8 +29,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def parse_size(text: str) -> tuple[int, int]:
-    from retrieval.errors import StoryBeamError
-
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
@@ -37,8 +37,8 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args: argparse.Namespace) -> int:
+    # deferred: the scene layer (pyrender, OpenGL, the motion library) loads only for this command
     from app.scene.demo_pipeline import DemoConfig, run_demo
-    from retrieval.errors import StoryBeamError
 
     if not args.demo:
         raise StoryBeamError("only the bundled demo scene can be rendered so far: pass --demo")

@@ -1,7 +1,8 @@
 """`storybeam stress`: the long robustness campaign (fuzzed motion files, SIGKILLed story
-saves, bad packages and calibration files, lost tracking, a random-touch monkey).
+saves, bad packages and calibration files, lost tracking, a random-touch monkey), and
+on request coverage-guided fuzzing with atheris (``--only atheris``; ``pip install atheris``).
 
-The short versions of the same harnesses run in CI (tests/test_robust_*.py); this command
+The short versions of the same harnesses run in CI (tests/robust/test_*.py); this command
 runs them for as long as asked and writes one JSON summary with the headline figures
 (``inputs``, ``crashes``, ``hangs``, ``kills``, ``stories_lost``,
 ``recovery_frames_max``) plus each harness's detail. See docs/reliability.md.
@@ -11,21 +12,34 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import tempfile
 import time
 from pathlib import Path
+from typing import Callable
 
+from tqdm import tqdm
+
+from app.paths import MOTIONS_DIR, REPO_ROOT
+from app.stress.atheris_fuzz import require_atheris, run_atheris_campaign  # cheap: stdlib, app.paths, errors
+from retrieval.errors import StoryBeamError
+
+#: The harnesses run by default (``--only`` picks a subset).
 HARNESSES = ("fuzz", "kill", "packages", "tracking", "monkey")
+#: Harnesses that run only when named in ``--only``: atheris is an optional install.
+OPTIONAL_HARNESSES = ("atheris",)
 
 
-def register(subparsers) -> None:
+def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("stress", help="robustness campaign (fuzzing, crash-safety, tracking loss, monkey)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seconds", type=float, default=60.0,
                    help="time budget per harness in seconds (default 60); a count option below stops it earlier")
     p.add_argument("--only", default=",".join(HARNESSES),
-                   help=f"comma-separated harnesses to run (default all: {','.join(HARNESSES)})")
+                   help=f"comma-separated harnesses to run (default: {','.join(HARNESSES)}; also "
+                        f"{','.join(OPTIONAL_HARNESSES)}, coverage-guided fuzzing that needs `pip install atheris`)")
     p.add_argument("--json", type=Path, default=None, help="write the summary as JSON here")
-    p.add_argument("--fuzz-inputs", type=int, default=None, help="stop fuzzing after this many inputs")
+    p.add_argument("--fuzz-inputs", type=int, default=None,
+                   help="stop fuzzing (fuzz, atheris) after this many inputs")
     p.add_argument("--kills", type=int, default=None, help="stop the kill harness after this many kills")
     p.add_argument("--frames", type=int, default=3000, help="frames per tracking scenario (default 3000)")
     p.add_argument("--seed", type=int, default=0, help="random seed (every harness is reproducible from it)")
@@ -34,20 +48,26 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _selected(only: str) -> list[str]:
+def selected(only: str) -> list[str]:
+    """The harness names of ``--only``, checked: a :class:`StoryBeamError` for an unknown
+    name, or for ``atheris`` when atheris is not installed (before anything runs)."""
     names = [n.strip() for n in only.split(",") if n.strip()]
-    unknown = sorted(set(names) - set(HARNESSES))
+    known = HARNESSES + OPTIONAL_HARNESSES
+    unknown = sorted(set(names) - set(known))
     if unknown:
-        from retrieval.errors import StoryBeamError
-
-        raise StoryBeamError(f"unknown harness(es) {', '.join(unknown)} (choose from {', '.join(HARNESSES)})")
+        raise StoryBeamError(f"unknown harness(es) {', '.join(unknown)} (choose from {', '.join(known)})")
+    if not names:
+        raise StoryBeamError(f"--only names no harness (choose from {', '.join(known)})")
+    if "atheris" in names:
+        require_atheris()
     return names
 
 
 def run(args: argparse.Namespace) -> int:
-    import tempfile
-
-    names = _selected(args.only)
+    """Run each selected harness in turn, add up the headline figures, print (and with
+    ``--json`` write) the summary; exit 1 when any harness found a crash, hang, lost story
+    or other failure."""
+    names = selected(args.only)
     work = args.work_dir or Path(tempfile.mkdtemp(prefix="storybeam-stress-"))
     work.mkdir(parents=True, exist_ok=True)
     summary: dict = {"inputs": 0, "crashes": 0, "hangs": 0, "kills": 0, "stories_lost": 0,
@@ -83,14 +103,11 @@ def run(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------- runners
 
 
-def _run_fuzz(args, work: Path) -> dict:
-    from tqdm import tqdm
+def _run_fuzz(args: argparse.Namespace, work: Path) -> dict:
+    from app.stress import fuzz_motion as fuzz  # deferred: the stress layer (numpy, the loaders) only when run
 
-    from app.stress import fuzz_motion as fuzz
-
-    repo = Path(__file__).resolve().parents[2]
-    cmu = repo.parent / "shared" / "data" / "cmu"
-    seeds = fuzz.collect_seeds(cmu if cmu.is_dir() else None, repo / "assets" / "motions" / "bvh")
+    cmu = REPO_ROOT.parent / "shared" / "data" / "cmu"
+    seeds = fuzz.collect_seeds(cmu if cmu.is_dir() else None, MOTIONS_DIR / "bvh")
     with tqdm(total=args.fuzz_inputs, desc="fuzz motion files", unit="input", file=sys.stderr) as bar:
         stats = fuzz.run_campaign(seeds, inputs=args.fuzz_inputs, seconds=args.seconds, rng_seed=args.seed,
                                   crash_dir=work / "crashes", progress=bar.update)
@@ -102,29 +119,40 @@ def _run_fuzz(args, work: Path) -> dict:
     return out
 
 
-def _run_kill(args, work: Path) -> dict:
-    from app.stress.kill import run_kill_campaign
+def _run_atheris(args: argparse.Namespace, work: Path) -> dict:
+    with tqdm(desc="atheris (libFuzzer)", unit="line", file=sys.stderr) as bar:
+        def show(line: str) -> None:
+            bar.set_postfix_str(line[:60], refresh=False)
+            bar.update(1)
+
+        return run_atheris_campaign(work, seconds=args.seconds, runs=args.fuzz_inputs, seed=args.seed, progress=show)
+
+
+def _run_kill(args: argparse.Namespace, work: Path) -> dict:
+    from app.stress.kill import run_kill_campaign  # deferred: the stress layer only when run
 
     return run_kill_campaign(work, kills=args.kills, seconds=args.seconds, seed=args.seed)
 
 
-def _run_packages(args, work: Path) -> dict:
-    from app.stress.files import run_bad_file_campaign
+def _run_packages(args: argparse.Namespace, work: Path) -> dict:
+    from app.stress.files import run_bad_file_campaign  # deferred: the stress layer (OpenCV) only when run
 
     return run_bad_file_campaign(work, seconds=args.seconds, seed=args.seed)
 
 
-def _run_tracking(args, work: Path) -> dict:
-    from app.stress.tracking import run_tracking_campaign
+def _run_tracking(args: argparse.Namespace, work: Path) -> dict:
+    from app.stress.tracking import run_tracking_campaign  # deferred: the stress layer (OpenCV) only when run
 
     return run_tracking_campaign(frames=args.frames, seed=args.seed)
 
 
-def _run_monkey(args, work: Path) -> dict:
-    from app.stress.monkey import run_monkey
+def _run_monkey(args: argparse.Namespace, work: Path) -> dict:
+    from app.stress.monkey import run_monkey  # deferred: the stress layer only when run (Kivy runs in a child)
 
     return run_monkey(work, seconds=args.seconds, seed=args.seed, progress=True)
 
 
-_RUNNERS = {"fuzz": _run_fuzz, "kill": _run_kill, "packages": _run_packages, "tracking": _run_tracking,
-            "monkey": _run_monkey}
+_RUNNERS: dict[str, Callable[[argparse.Namespace, Path], dict]] = {
+    "fuzz": _run_fuzz, "kill": _run_kill, "packages": _run_packages, "tracking": _run_tracking,
+    "monkey": _run_monkey, "atheris": _run_atheris,
+}

@@ -1,3 +1,4 @@
-"""Robustness harnesses for the app layer (`storybeam stress`, tests/test_robust_*.py):
-SIGKILL during story saves, bad database/package/calibration files, and the UI monkey.
+"""Robustness harnesses for the app layer (`storybeam stress`; their short versions run in tests/robust/):
+fuzzed motion files (mutation fuzzing, and coverage-guided with atheris when installed),
+SIGKILL during story saves, bad database/package/calibration files, lost tracking, and the UI monkey.
 """

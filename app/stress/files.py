@@ -31,13 +31,20 @@ import random
 import resource
 import shutil
 import signal
+import sqlite3
 import subprocess
+import tempfile
 import time
 import traceback
+import warnings
 import zipfile
 from pathlib import Path
 from typing import Callable, Iterator
 
+from tqdm import tqdm
+
+from ar.calibration import CameraCalibration, ProjectorCalibration
+from ar.errors import CalibrationError
 from app.story.storage import (MAX_ENTRY_BYTES, MAX_PACKAGE_ENTRIES, PACKAGE_FORMAT_NAME, ProfileStore, StorageError)
 from app.story.model import Character, Mark, Story
 
@@ -97,9 +104,6 @@ def corrupt_bytes(rng: random.Random, data: bytes) -> tuple[bytes, str]:
 
 def foreign_files() -> dict[str, bytes]:
     """Files a child or teacher might pick instead of a profile database."""
-    import sqlite3
-    import tempfile
-
     out = {"empty": b"", "text": b"hello\n" * 100, "png": b"\x89PNG\r\n\x1a\n" + bytes(500),
            "zip": _zip_bytes({"a.txt": b"x"}), "sqlite header only": b"SQLite format 3\x00" + bytes(84),
            "random": random.Random(1).randbytes(8192)}
@@ -283,8 +287,6 @@ def _dup_names(story: dict) -> bytes:
     sb = json.dumps(story).encode()
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as zf, contextlib.suppress(UserWarning):
-        import warnings
-
         warnings.simplefilter("ignore")
         zf.writestr("manifest.json", _manifest(sb))
         zf.writestr("story.json", sb)
@@ -433,9 +435,6 @@ def mutate_calibration(rng: random.Random, doc: dict) -> bytes:
 
 
 def run_calibration_campaign(work: Path, n: int, seed: int = 0) -> dict:
-    from ar.calibration import CameraCalibration, ProjectorCalibration
-    from ar.errors import CalibrationError
-
     rng = random.Random(seed)
     work.mkdir(parents=True, exist_ok=True)
     loaders = {"camera": CameraCalibration.load, "projector": ProjectorCalibration.load}
@@ -609,8 +608,6 @@ def run_bad_file_campaign(work: Path, seconds: float = 60.0, seed: int = 0,
                           progress: Callable[[str], None] | None = None) -> dict:
     """Databases, packages and calibration files, about a third of ``seconds`` each,
     plus the full-disk check."""
-    from tqdm import tqdm
-
     out: dict = {}
     t0 = time.monotonic()
     with tqdm(total=4, desc="bad files", unit="part") as bar:

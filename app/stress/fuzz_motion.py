@@ -12,8 +12,8 @@ Starting from real seed files (the shared CMU takes, or the bundled BVHs) and ap
 the damage real files suffer — truncation, bit flips, edited counts, NaN/inf, deep or
 duplicated blocks, spliced files — reaches every branch. Seeds are cut to a few frames
 so one input takes milliseconds (the per-frame code is vectorised; extra frames add time
-but no new paths). Coverage-guided fuzzing with atheris (scripts/fuzz_motion_atheris.py)
-complements this when atheris is installed.
+but no new paths). Coverage-guided fuzzing with atheris (:mod:`app.stress.atheris_fuzz`, `storybeam stress
+--only atheris`) complements this when atheris is installed.
 
 Inputs run in-process with a per-input alarm (:func:`check_input`); a worker subprocess
 (:func:`run_campaign`) adds a watchdog for hangs inside C code the alarm cannot interrupt
@@ -23,7 +23,9 @@ crash or hang is written to disk so it can be replayed.
 from __future__ import annotations
 
 import json
+import logging
 import re
+import selectors
 import resource
 import signal
 import subprocess
@@ -37,7 +39,10 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from app.paths import MOTIONS_DIR
 from retrieval.errors import MotionFormatError
+from retrieval.motion import positions
+from retrieval.motion.formats import MAX_FILE_BYTES, find_asf, load_amc, load_asf, load_bvh
 
 #: Frames kept per seed file (see module docstring).
 SEED_FRAMES = 8
@@ -143,8 +148,6 @@ def collect_seeds(cmu_dir: Path | None, bundled_bvh_dir: Path | None, per_kind: 
     if cmu_dir is not None and cmu_dir.is_dir():
         bvh_files = [p for sub in ("bvh", "extra") for p in (cmu_dir / sub).glob("*.bvh")]
         for amc in spread(list((cmu_dir / "amc").glob("*.amc"))):
-            from retrieval.motion.formats import find_asf
-
             asf = find_asf(amc)
             if asf is None:
                 continue
@@ -337,7 +340,7 @@ def _alarm(signum, frame):
     raise InputTimeout()
 
 
-def _check_motion(motion) -> None:
+def check_motion(motion) -> None:
     """A loaded motion must be usable: finite numbers, a positive frame rate."""
     if not (np.isfinite(motion.fps) and motion.fps > 0):
         raise AssertionError(f"loaded motion has fps {motion.fps}")
@@ -348,8 +351,6 @@ def _check_motion(motion) -> None:
             raise AssertionError(f"loaded motion has non-finite {name}")
     if not np.isfinite(motion.skeleton.offsets).all() or not np.isfinite(motion.skeleton.metres_per_unit):
         raise AssertionError("loaded skeleton has non-finite offsets or units")
-    from retrieval.motion import positions
-
     with np.errstate(all="ignore"):
         first = positions(motion.slice(0, 1))  # metres, Y up: what the app uses
     if not np.isfinite(first).all():
@@ -358,9 +359,6 @@ def _check_motion(motion) -> None:
 
 def load_bytes(kind: str, data: bytes, companion: bytes, workdir: Path):
     """Write the input (and its companion) to ``workdir`` and load it with the real loader."""
-    from retrieval.motion.formats import load_amc, load_asf
-    from retrieval.motion.formats import load_bvh
-
     if kind == "bvh":
         path = workdir / "input.bvh"
         path.write_bytes(data)
@@ -376,7 +374,7 @@ def check_input(kind: str, data: bytes, companion: bytes, workdir: Path,
                 time_limit_s: float = INPUT_TIME_LIMIT_S) -> Outcome:
     """Run one input through the loader under a per-input alarm; classify the result.
 
-    ``loaded`` also requires a finite motion (see :func:`_check_motion`); anything but a
+    ``loaded`` also requires a finite motion (see :func:`check_motion`); anything but a
     :class:`MotionFormatError` is a ``crash`` (the detail is the traceback's tail).
     Must run on the main thread (it uses ``SIGALRM``).
     """
@@ -386,7 +384,7 @@ def check_input(kind: str, data: bytes, companion: bytes, workdir: Path,
         signal.setitimer(signal.ITIMER_REAL, time_limit_s)
         try:
             motion = load_bytes(kind, data, companion, workdir)
-            _check_motion(motion)
+            check_motion(motion)
         finally:
             signal.setitimer(signal.ITIMER_REAL, 0)
         return Outcome("loaded", time.perf_counter() - start)
@@ -412,8 +410,6 @@ def fuzz_in_process(seeds: list[Seed], n_inputs: int, rng_seed: int, workdir: Pa
                     crash_dir: Path | None = None, time_limit_s: float = INPUT_TIME_LIMIT_S,
                     on_input: Callable[[Outcome], None] | None = None) -> FuzzStats:
     """Fuzz ``n_inputs`` inputs in this process (deterministic for a given ``rng_seed``)."""
-    import logging
-
     logging.getLogger("retrieval").setLevel(logging.ERROR)  # "ignoring data after ..." warnings
     rng = np.random.default_rng(rng_seed)
     stats = FuzzStats()
@@ -456,7 +452,7 @@ def fuzz_in_process(seeds: list[Seed], n_inputs: int, rng_seed: int, workdir: Pa
 
 
 def _worker_main(argv: list[str]) -> int:
-    """``python -m retrieval.fuzz worker CONFIG.json``: fuzz batches, one JSON line each."""
+    """``python -m app.stress.fuzz_motion worker CONFIG.json``: fuzz batches, one JSON line each."""
     cfg = json.loads(Path(argv[0]).read_text())
     mem = int(cfg.get("memory_limit", WORKER_MEMORY_LIMIT))
     if mem > 0:
@@ -541,8 +537,6 @@ def run_campaign(seeds: list[Seed], *, inputs: int | None = None, seconds: float
 def _lines_with_timeout(proc: subprocess.Popen, timeout: float) -> Iterator[str]:
     """Lines of ``proc.stdout``; stops (without StopIteration being an error) when one
     line takes longer than ``timeout`` or the stream ends."""
-    import selectors
-
     sel = selectors.DefaultSelector()
     sel.register(proc.stdout, selectors.EVENT_READ)
     while True:
@@ -582,8 +576,6 @@ def _probe_files(folder: Path, bvh_seed: bytes | None) -> dict[str, Path]:
         text = bvh_seed.decode("utf-8", "replace")
         header, _, rest = text.partition("MOTION")
         row = [ln for ln in rest.splitlines() if ln.strip() and ":" not in ln][0] + "\n"
-        from retrieval.motion.formats import MAX_FILE_BYTES
-
         n = (MAX_FILE_BYTES - len(header) - 64) // len(row.encode())
         p = folder / "at_size_limit.bvh"
         with open(p, "w") as fh:
@@ -597,7 +589,7 @@ def memory_probes(folder: Path, bvh_seed: bytes | None = None, timeout_s: float 
     """Load each probe file in a fresh process (capped at :data:`WORKER_MEMORY_LIMIT`);
     report its outcome, seconds and peak RSS. ``ok``: loaded or refused cleanly."""
     if bvh_seed is None:
-        bundled = Path(__file__).resolve().parents[2] / "assets" / "motions" / "bvh"
+        bundled = MOTIONS_DIR / "bvh"
         first = next(iter(sorted(bundled.glob("*.bvh"))), None)
         bvh_seed = first.read_bytes() if first else None
     results = []
@@ -629,4 +621,4 @@ if __name__ == "__main__":  # pragma: no cover - entry point of the worker subpr
         sys.exit(_worker_main(sys.argv[2:]))
     if len(sys.argv) == 3 and sys.argv[1] == "probe":
         sys.exit(_probe_main(sys.argv[2]))
-    sys.exit("usage: python -m retrieval.fuzz worker CONFIG.json | probe FILE.bvh")
+    sys.exit("usage: python -m app.stress.fuzz_motion worker CONFIG.json | probe FILE.bvh")

@@ -25,9 +25,13 @@ import os
 import random
 import signal
 import sqlite3
+import selectors
 import time
+import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from tqdm import tqdm
 
 from app.story.storage import ProfileStore, StorageError
 from app.story.model import Character, Mark, MotionChoice, Story
@@ -205,8 +209,6 @@ def run_kill_campaign(work: Path, kills: int | None = None, seconds: float | Non
     deadline = None if seconds is None else time.monotonic() + seconds
     bar = None
     if progress:
-        from tqdm import tqdm
-
         bar = tqdm(total=kills, desc="kill story saves", unit="kill")
     try:
         while (kills is None or report.kills < kills) and (deadline is None or time.monotonic() < deadline):
@@ -233,8 +235,6 @@ def _one_kill(db: Path, rng: random.Random, expected: dict[str, _Expected], repo
             os.close(read_fd)
             _child(db, child_seed, write_fd)
         except BaseException:  # noqa: BLE001 - report the failure through the exit code
-            import traceback
-
             traceback.print_exc()
             code = 70
         finally:
@@ -250,8 +250,6 @@ def _one_kill(db: Path, rng: random.Random, expected: dict[str, _Expected], repo
             break
         buf += chunk
     # Keep draining the pipe while waiting, so the child never blocks on a full pipe.
-    import selectors
-
     kill_at = time.monotonic() + delay
     with selectors.DefaultSelector() as sel:
         sel.register(read_fd, selectors.EVENT_READ)

@@ -20,12 +20,21 @@ from __future__ import annotations
 
 import json
 import os
+import random
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import traceback
 from pathlib import Path
+
+from tqdm import tqdm
+
+from app.paths import REPO_ROOT
+from app.services.catalog import MotionCatalog
+from app.story.storage import ProfileStore, StorageError
+from app.ui.env import prepare_kivy_env
 
 #: Seconds between monkey actions (a busy child taps a few times a second).
 ACTION_INTERVAL_S = 0.08
@@ -33,15 +42,11 @@ ACTION_INTERVAL_S = 0.08
 
 def _run_with_bar(cmd: list[str], env: dict, seconds: float, timeout: float, progress: bool) -> tuple[int, str]:
     """Run the app process; with ``progress`` show a bar of the monkey's seconds."""
-    import tempfile
-
     with tempfile.TemporaryFile("w+") as log:
         proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT, text=True,
-                                cwd=str(Path(__file__).resolve().parents[2]))
+                                cwd=str(REPO_ROOT))
         bar = None
         if progress:
-            from tqdm import tqdm
-
             bar = tqdm(total=int(seconds), desc="monkey touches", unit="s")
         start = time.monotonic()
         try:
@@ -94,22 +99,17 @@ def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_
 
 
 def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no cover - runs in a subprocess
-    import random
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-    from app.ui.env import prepare_kivy_env
-
     prepare_kivy_env(headless=True, width=1280, height=800)
-    from kivy.base import ExceptionHandler, ExceptionManager
-    from kivy.clock import Clock
-    from kivy.core.window import Window
-    from kivy.tests.common import UnitTestTouch
-    from kivy.uix.behaviors import ButtonBehavior
-    from kivy.uix.modalview import ModalView
+    # deferred: Kivy reads its environment at import, so every Kivy import (and the app,
+    # which imports Kivy) comes after prepare_kivy_env(); each line below says so.
+    from kivy.base import ExceptionHandler, ExceptionManager  # deferred: after prepare_kivy_env()
+    from kivy.clock import Clock  # deferred: after prepare_kivy_env()
+    from kivy.core.window import Window  # deferred: after prepare_kivy_env() (opens the window)
+    from kivy.tests.common import UnitTestTouch  # deferred: after prepare_kivy_env()
+    from kivy.uix.behaviors import ButtonBehavior  # deferred: after prepare_kivy_env()
+    from kivy.uix.modalview import ModalView  # deferred: after prepare_kivy_env()
 
-    from app.services.catalog import MotionCatalog
-    from app.story.storage import ProfileStore, StorageError
-    from app.ui.app import StoryBeamApp
+    from app.ui.app import StoryBeamApp  # deferred: imports Kivy, so after prepare_kivy_env()
 
     out.mkdir(parents=True, exist_ok=True)
     rng = random.Random(seed)

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+from tqdm import tqdm
 
 from ar.boards import DEFAULT_BOARD_SPEC, Board
 from ar.filtering import TRACKING, PoseTracker
@@ -206,8 +207,6 @@ def run_scenario(n_frames: int, seed: int = 0, camera: PinholeModel | None = Non
 
 def run_tracking_campaign(frames: int = 3000, seed: int = 0, camera: PinholeModel | None = None) -> dict:
     """The `storybeam stress --only tracking` entry: one long sequence, with a progress bar."""
-    from tqdm import tqdm
-
     with tqdm(total=frames, desc="tracking loss", unit="frame") as bar:
         res = run_scenario(frames, seed=seed, camera=camera, progress=bar.update)
     out = res.to_dict()

@@ -1,13 +1,30 @@
-"""`storybeam bench retrieval --quick` runs end to end on the bundled library and writes
-the JSON keys the docs and CI read."""
+"""`storybeam bench <target>`: every target is listed and has --help; the cheap targets
+run end to end on tiny inputs and write the JSON keys the docs read; bad input is a
+one-line error, not a traceback."""
 from __future__ import annotations
 
+import csv
 import json
+import shutil
+
+import numpy as np
+import pytest
+from PIL import Image
 
 from app.cli import main
+from app.commands.bench_cmd import TARGETS
+from app.paths import MOTIONS_DIR
 
 REQUIRED = ("protocol", "speedup_vs_exact_dtw", "speedup_vs_dtaidistance", "speedup_vs_seed_method",
             "query_ms_median", "query_ms_p95", "library_clips", "library_hours", "table_bytes")
+AR_CONDITION_KEYS = {"detect_rate", "rot_err_deg_median", "trans_err_mm_median", "rot_err_deg_p95", "trans_err_mm_p95",
+                     "jitter_raw_deg", "jitter_filtered_deg", "jitter_raw_mm", "jitter_filtered_mm",
+                     "landing_error_mm_median", "detect_pose_ms_median", "render_ms_median"}
+EXPECTED_TARGETS = ("retrieval", "ar", "animation", "dtw-kernels", "motion-io", "numpy-retrieval", "fast-search-profile")
+
+
+def _json(path) -> dict:
+    return json.loads(path.read_text())
 
 
 def test_bench_retrieval_quick_emits_the_json_keys(tmp_path, monkeypatch, capsys):
@@ -15,7 +32,7 @@ def test_bench_retrieval_quick_emits_the_json_keys(tmp_path, monkeypatch, capsys
     out = tmp_path / "bench.json"
     rc = main(["bench", "retrieval", "--quick", "--fps", "30", "--json", str(out), "--quiet"])
     assert rc == 0
-    res = json.loads(out.read_text())
+    res = _json(out)
     for key in REQUIRED:
         assert key in res, key
     for method in ("fast", "quantized", "dtw", "dtaidistance"):
@@ -30,6 +47,132 @@ def test_bench_retrieval_quick_emits_the_json_keys(tmp_path, monkeypatch, capsys
     assert "paper protocol" in printed and "speed-up" in printed
 
 
-def test_bench_without_target_prints_help(capsys):
+def test_bench_without_target_prints_help_listing_every_target(capsys):
     assert main(["bench"]) == 2
-    assert "retrieval" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert tuple(TARGETS) == EXPECTED_TARGETS
+    for target in EXPECTED_TARGETS:
+        assert target in printed, target
+
+
+@pytest.mark.parametrize("target", EXPECTED_TARGETS)
+def test_every_target_has_help_with_a_json_option(target, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", target, "--help"])
+    assert exc.value.code == 0
+    printed = capsys.readouterr().out
+    assert f"storybeam bench {target}" in printed and "--json" in printed
+
+
+def test_the_old_commands_are_gone(capsys):
+    with pytest.raises(SystemExit):
+        main(["ar-bench", "--help"])
+    assert "invalid choice: 'ar-bench'" in capsys.readouterr().err
+
+
+def test_bench_dtw_kernels_tiny(tmp_path, capsys):
+    out = tmp_path / "kernels.json"
+    assert main(["bench", "dtw-kernels", "--frames", "40", "--repeat", "1", "--json", str(out)]) == 0
+    res = _json(out)
+    assert res["frames"] == 40 and res["repeat"] == 1
+    names = [k["kernel"] for k in res["kernels"]]
+    assert any("split table" in n for n in names) and any("numpy" in n for n in names)
+    for k in res["kernels"]:
+        assert set(k) == {"kernel", "seconds", "cells", "ns_per_cell"}
+        assert k["ns_per_cell"] > 0 and k["cells"] > 0
+    assert "ns/cell" in capsys.readouterr().out
+
+
+@pytest.fixture
+def tiny_library(tmp_path):
+    """Two bundled BVH clips and a labels.csv naming them."""
+    folder = tmp_path / "mini"
+    (folder / "bvh").mkdir(parents=True)
+    with open(MOTIONS_DIR / "labels.csv", newline="") as fh:
+        reader = csv.DictReader(fh)
+        rows = [r for r in reader][:2]
+        fields = reader.fieldnames
+    for r in rows:
+        shutil.copy(MOTIONS_DIR / r["file"], folder / r["file"])
+    with open(folder / "labels.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fields)
+        writer.writeheader()
+        writer.writerows(rows)
+    return folder
+
+
+def test_bench_motion_io_tiny(tiny_library, tmp_path, capsys):
+    out = tmp_path / "io.json"
+    assert main(["bench", "motion-io", "--data", str(tiny_library), "--repeat", "2", "--json", str(out)]) == 0
+    res = _json(out)
+    assert res["files"] == 2 and res["repeat"] == 2 and len(res["pass_seconds"]) == 2
+    assert res["frames"] > 0 and res["frames_per_second"] > 0
+    assert "2 files" in capsys.readouterr().out
+
+
+def test_bench_numpy_retrieval_on_the_bundled_library(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("STORYBEAM_CACHE", str(tmp_path / "cache"))
+    out = tmp_path / "numpy.json"
+    assert main(["bench", "numpy-retrieval", str(MOTIONS_DIR), "30", "--quiet", "--json", str(out)]) == 0
+    res = _json(out)
+    assert set(res["methods"]) == {"fast_numpy", "fast_numpy_no_range", "quantized"}
+    # all three are exact: the same answers, so the same accuracy
+    assert len({m["accuracy"] for m in res["methods"].values()}) == 1
+    assert res["speedup_vs_seed_method"] > 0 and res["clips"] >= 3
+    assert "speed-up" in capsys.readouterr().out
+
+
+def test_bench_fast_search_profile_on_the_bundled_library(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("STORYBEAM_CACHE", str(tmp_path / "cache"))
+    out = tmp_path / "profile.json"
+    assert main(["bench", "fast-search-profile", "30", "--data", str(MOTIONS_DIR), "--quiet", "--json", str(out)]) == 0
+    res = _json(out)
+    assert res["compare"]["identical_answers"] is True
+    assert set(res["stages_seconds"]) == {"pack", "rows", "bounds", "loop"}
+    assert all(v >= 0 for v in res["stages_seconds"].values())
+    variants = res["compare"]["variants"]
+    assert len(variants) == 2 and all(v["stats"]["candidates"] > 0 for v in variants.values())
+    assert "stages of the default search" in capsys.readouterr().out
+
+
+def test_bench_ar_few_frames(tmp_path, capsys):
+    out = tmp_path / "ar.json"
+    rc = main(["bench", "ar", "--frames", "3", "--conditions", "clean,occlusion_30", "--true-calibration",
+               "--json", str(out), "--examples", str(tmp_path / "img")])
+    assert rc == 0
+    result = _json(out)
+    assert set(result["conditions"]) == {"clean", "occlusion_30"}
+    for cond in result["conditions"].values():
+        assert AR_CONDITION_KEYS <= set(cond)
+    assert result["conditions"]["clean"]["detect_rate"] == 1.0
+    assert result["conditions"]["clean"]["rot_err_deg_median"] < 0.2
+    for key in ("landing_error_mm_median", "detect_pose_ms_median", "render_ms_median"):
+        assert result[key] > 0
+    assert "| clean |" in capsys.readouterr().out
+    with Image.open(tmp_path / "img" / "ar_clean_projector_view.png") as im:
+        lit = np.asarray(im.convert("L")) > 20
+    assert 0.01 < lit.mean() < 0.5  # the test scene is drawn, on black
+    assert (tmp_path / "img" / "ar_occlusion_30_camera_axes.png").is_file()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["ar", "--frames", "3", "--conditions", "fog"], "unknown condition(s) fog"),
+    (["ar", "--frames", "3", "--board", "checker:9x6"], "expected 3"),
+    (["animation", "--characters", "dragon"], "unknown character(s) dragon"),
+    (["motion-io", "--data", "{tmp}/nope"], "labels.csv not found"),
+    (["numpy-retrieval", "{tmp}/nope"], "has no labels.csv"),
+])
+def test_bad_input_is_a_one_line_error(argv, message, tmp_path, capsys):
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    assert main(["bench", *argv]) == 1
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("argv", [["dtw-kernels", "--frames", "1"], ["motion-io", "--repeat", "0"],
+                                  ["ar", "--frames", "x"], ["numpy-retrieval", ".", "-3"]])
+def test_bad_numbers_are_usage_errors(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", *argv])
+    assert exc.value.code == 2
+    assert "error: argument" in capsys.readouterr().err

@@ -78,7 +78,7 @@ def test_loaded_motion_with_non_finite_numbers_is_a_failure():
     class Fake:
         fps = float("inf")
     with pytest.raises(AssertionError):
-        fuzz._check_motion(Fake())
+        fuzz.check_motion(Fake())
 
 
 def test_worker_campaign_runs_in_a_subprocess(seeds, tmp_path):
