@@ -261,8 +261,7 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
                      "fps": fps, "scale_fps": scale_fps, "dims": dims, "folds": folds, "seed": seed,
                      "band_frames": band_frames, "quick": quick, "threads_all": all_threads,
                      "note": note},
-        "machine": {"cpus": os.cpu_count(), "load_average_at_end": list(os.getloadavg()),
-                    "python": platform.python_version(), "processor": platform.processor() or platform.machine()},
+        "machine": machine_info(),
         "total_seconds": time.perf_counter() - started,
     }
     return out
@@ -291,6 +290,24 @@ def plot_latency_curve(curve: list[dict], path: str | Path) -> Path:
     return path
 
 
+def cpu_model() -> str:
+    """The CPU's model name from /proc/cpuinfo (Linux), else what :mod:`platform` knows:
+    ratios against other runs only compare on the same model."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.lower().startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def machine_info() -> dict:
+    """What a reader needs to compare this run with another: cores, CPU model, load."""
+    return {"cpus": os.cpu_count(), "cpu_model": cpu_model(), "load_average_at_end": list(os.getloadavg()),
+            "python": platform.python_version(), "processor": platform.processor() or platform.machine()}
+
+
 def format_report(out: dict) -> str:
     p = out["protocol"]
     s = out["settings"]
@@ -315,6 +332,7 @@ def format_report(out: dict) -> str:
         f"distance structure: {out['table_bytes']} B (difference table; component "
         f"{out['table_bytes_by_layout']['component']} B; seed's full table {out['table_bytes_by_layout']['full']} B); "
         f"index {out['index_bytes_per_clip']:.0f} B per clip (codes alone {out['codes_bytes_per_clip']:.0f} B)",
+        f"{out['machine'].get('cpu_model', '?')}; "
         f"load average at the end: {', '.join(f'{x:.2f}' for x in out['machine']['load_average_at_end'])} "
         f"on {out['machine']['cpus']} CPUs",
     ]
