@@ -146,21 +146,26 @@ class MotionIndex:
         those clips, kept in library order, so the answer is the full search's answer
         filtered to them — same distances (a clip's distance does not depend on the other
         clips), ties by library order — at the cost of a search over the subset. The
-        subset's searcher is built once and kept (a few subsets at a time)."""
-        pos = tuple(sorted({int(p) for p in positions} - ({exclude} if exclude is not None else set())))
+        subset's searcher is built once and kept (a few subsets at a time; the whole library
+        uses the index's own), and ``exclude`` is dropped from its answer rather than from
+        the subset, so asking about each member of a class in turn reuses one searcher."""
+        pos = tuple(sorted({int(p) for p in positions}))
         if pos and (pos[0] < 0 or pos[-1] >= len(self)):
             raise StoryBeamError(f"positions must lie in [0, {len(self)}), got {pos[0]}..{pos[-1]}")
-        if k <= 0 or not pos:
+        dropped = exclude is not None and exclude in pos
+        if k <= 0 or len(pos) <= dropped:
             return []
-        searcher = self._subsets.get(pos)
+        searcher = self.searcher if len(pos) == len(self) else self._subsets.get(pos)
         if searcher is None:
             if len(self._subsets) >= 8:
                 self._subsets.clear()
             searcher = self._subsets[pos] = FastSearcher([self.codes[i] for i in pos], self.table, band=self.band,
                                                          backend=self.searcher.backend)
-        res = searcher.search([np.ascontiguousarray(codes, dtype=np.int32)], k=min(k, len(pos)), parallel=False)
-        return [Match(self.trials[pos[i]], self.labels[pos[i]], float(d))
-                for i, d in zip(res.indices[0], res.distances[0]) if i >= 0]
+        res = searcher.search([np.ascontiguousarray(codes, dtype=np.int32)], k=min(k + dropped, len(pos)),
+                              parallel=False)
+        out = [Match(self.trials[pos[i]], self.labels[pos[i]], float(d))
+               for i, d in zip(res.indices[0], res.distances[0]) if i >= 0 and pos[i] != exclude]
+        return out[:k]
 
     def query(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
         """The ``k`` nearest clips to a motion (resampled to the index's fps) or to a
