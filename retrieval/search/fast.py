@@ -654,6 +654,15 @@ class FastSearcher:
             return 2
         return int(self.run_length and rle_is_exact(self.table.F, self._longest + longest_query))
 
+    def _plan(self, packed: PackedCodes) -> tuple[int, int]:
+        """(kernel of :meth:`_kernel`, band or -1) for a batch of queries; the library's codes
+        are indexed into the vocabulary once a search first needs the frame-level DP."""
+        use_rle = self._kernel(int(packed.lengths.max()))
+        band = -1 if self.band is None else int(self.band)
+        if (use_rle != 1 or band >= 0) and len(self._LV[0]) == 0:
+            self._LV = (self._vocab_index(self.library.codes), self._LV[1])
+        return use_rle, band
+
     def search(self, queries: Sequence[np.ndarray], k: int = 1, parallel: bool = True) -> SearchResult:
         """k nearest library clips for each query code sequence (a batch)."""
         if k < 1:
@@ -665,10 +674,7 @@ class FastSearcher:
         out_idx = np.full((nq, k), -1, np.int64)
         out_dist = np.full((nq, k), np.inf)
         stats = np.zeros((nq, 5), np.int64)
-        use_rle = self._kernel(int(packed.lengths.max()))
-        band = -1 if self.band is None else int(self.band)
-        if (use_rle != 1 or band >= 0) and len(self._LV[0]) == 0:
-            self._LV = (self._vocab_index(self.library.codes), self._LV[1])
+        use_rle, band = self._plan(packed)
         Q, L, LV = packed.arrays(), self._L, self._LV
         t = self.table
         if nq == 1 or not parallel:
@@ -729,10 +735,7 @@ class FastSearcher:
         out_idx = np.full((1, k), -1, np.int64)
         out_dist = np.full((1, k), np.inf)
         stats = np.zeros((1, 5), np.int64)
-        use_rle = self._kernel(int(packed.lengths.max()))
-        band = -1 if self.band is None else int(self.band)
-        if (use_rle != 1 or band >= 0) and len(self._LV[0]) == 0:
-            self._LV = (self._vocab_index(self.library.codes), self._LV[1])
+        use_rle, band = self._plan(packed)
         self._search_one(packed, packed.arrays(), 0, k, use_rle, band, out_idx[0], out_dist[0], stats[0], False, times)
         res = SearchResult(out_idx, out_dist)
         res.stats.add(stats[0])
