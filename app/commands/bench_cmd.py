@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Callable
 
 from app.commands.output import write_json_report
+from app.progress import progress_bar
 from retrieval.errors import StoryBeamError
 
 
@@ -24,6 +25,14 @@ def _parser(sub: argparse._SubParsersAction, name: str, help: str, doc: str, fun
                    help=f"write the full result as JSON here{where}")
     p.set_defaults(func=func)
     return p
+
+
+def _finish(args: argparse.Namespace, result: dict, table: str) -> int:
+    """Print a target's table and write its result to ``--json`` when asked; exit code 0."""
+    print(table)
+    if args.json_out:
+        write_json_report(args.json_out, result)
+    return 0
 
 
 def _at_least(minimum: int) -> Callable[[str], int]:
@@ -76,10 +85,7 @@ def _run_retrieval(args: argparse.Namespace) -> int:
 
     out = run_retrieval_bench(args.data, fps=args.fps, scale_fps=args.scale_fps, quick=args.quick, dims=args.dims,
                               plot=args.plot, progress=not args.quiet)
-    print(format_report(out))
-    if args.json_out:
-        write_json_report(args.json_out, out)
-    return 0
+    return _finish(args, out, format_report(out))
 
 
 # ------------------------------------------------------------------------------- ar
@@ -162,10 +168,7 @@ def _add_animation(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_animation(args: argparse.Namespace) -> int:
-    from tqdm import tqdm  # deferred: only the benchmarks draw bars
-
     from app.bench.animation import (  # deferred: loads pyrender and the retrieval stack
-        STEPS,
         check_characters,
         format_summary,
         run_animation_bench,
@@ -173,12 +176,8 @@ def _run_animation(args: argparse.Namespace) -> int:
 
     characters = check_characters([c.strip() for c in args.characters.split(",") if c.strip()])
     kw = {"shared": args.shared} if args.shared is not None else {}
-    with tqdm(total=len(STEPS), desc="bench animation", unit="step") as bar:
-        result = run_animation_bench(characters=characters, progress=lambda done, total: bar.update(1), **kw)
-    print(format_summary(result))
-    if args.json_out:
-        write_json_report(args.json_out, result)
-    return 0
+    result = run_animation_bench(characters=characters, progress=progress_bar("bench animation", "step"), **kw)
+    return _finish(args, result, format_summary(result))
 
 
 # ---------------------------------------------------------------------- dtw-kernels
@@ -198,10 +197,7 @@ def _run_dtw_kernels(args: argparse.Namespace) -> int:
     from app.bench.dtw_kernels import format_table, run_dtw_kernels_bench
 
     result = run_dtw_kernels_bench(frames=args.frames, repeat=args.repeat)
-    print(format_table(result))
-    if args.json_out:
-        write_json_report(args.json_out, result)
-    return 0
+    return _finish(args, result, format_table(result))
 
 
 # ------------------------------------------------------------------------ motion-io
@@ -221,10 +217,7 @@ def _run_motion_io(args: argparse.Namespace) -> int:
     from app.bench.motion_io import DEFAULT_DATA, format_table, run_motion_io_bench
 
     result = run_motion_io_bench(args.data or DEFAULT_DATA, repeat=args.repeat)
-    print(format_table(result))
-    if args.json_out:
-        write_json_report(args.json_out, result)
-    return 0
+    return _finish(args, result, format_table(result))
 
 
 # ------------------------------------------------------------------ numpy-retrieval
@@ -247,10 +240,7 @@ def _run_numpy_retrieval(args: argparse.Namespace) -> int:
 
     kw = {"folder": args.folder} if args.folder else {}
     result = run_numpy_retrieval_bench(fps=args.fps, progress=not args.quiet, **kw)
-    print(format_table(result))
-    if args.json_out:
-        write_json_report(args.json_out, result)
-    return 0
+    return _finish(args, result, format_table(result))
 
 
 # -------------------------------------------------------------- fast-search-profile
@@ -272,10 +262,7 @@ def _run_fast_search_profile(args: argparse.Namespace) -> int:
     from app.bench.fast_search_profile import format_report, run_fast_search_profile
 
     result = run_fast_search_profile(args.data, fps=args.fps, progress=not args.quiet)
-    print(format_report(result))
-    if args.json_out:
-        write_json_report(args.json_out, result)
-    return 0
+    return _finish(args, result, format_report(result))
 
 
 #: Benchmark targets: name -> function adding its sub-parser (in `storybeam bench --help` order).
