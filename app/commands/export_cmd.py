@@ -17,7 +17,6 @@ import argparse
 import json
 
 from app.progress import progress_bar
-from retrieval.errors import StoryBeamError
 
 #: The views of app.scene.video_export.VIEWS, repeated here so that `storybeam --help`
 #: does not load the scene layer (tests/app/test_cli.py keeps the two equal).
@@ -42,12 +41,7 @@ def run(args: argparse.Namespace) -> int:
     frame with :func:`app.scene.export_story_mp4`, report progress, print the result line."""
     from app.scene import export_story_mp4, frame_count, read_story  # deferred: the scene layer (numpy, imageio, 3-D) only for this command
 
-    try:
-        story = read_story(args.story_json)
-    except StoryBeamError as exc:  # the story model's own errors say "story: ...", not which file
-        if str(args.story_json) in str(exc):
-            raise
-        raise StoryBeamError(f"{args.story_json}: cannot read the story ({exc})") from None
+    story = read_story(args.story_json)
     total = frame_count(story, args.fps)
     bar = None if args.progress_lines else progress_bar("export", "frame")
 

@@ -39,7 +39,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from app.paths import REPO_ROOT
-from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Story
+from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Story, StoryError
 from retrieval.errors import StoryBeamError
 
 # RGB 0..255, mirrors app/ui/art.py (kept separate: that module needs Kivy)
@@ -278,7 +278,8 @@ def read_story(path: str | Path) -> Story:
     naming the file."""
     try:
         return Story.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, StoryError) as exc:
+        # the story model's own errors name the field ("story.scenes[0]: ..."), not the file
         raise VideoExportError(f"{path}: cannot read the story ({exc})") from None
 
 
