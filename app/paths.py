@@ -7,6 +7,7 @@ lower layers): they take their paths as arguments, and the app passes these.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 #: the checkout (the folder holding ``app/``, ``ar/``, ``retrieval/`` and ``assets/``)
@@ -23,6 +24,11 @@ FONTS_DIR = ASSETS / "fonts"
 FONT_PATH = FONTS_DIR / "Mplus1-Medium.otf"
 #: printable boards (``storybeam board`` writes them)
 BOARDS_DIR = ASSETS / "boards"
+#: the shared data beside the checkout (``../shared/data``; ``$STORYBEAM_SHARED_DATA``
+#: overrides it), and its CMU folder: what the benchmarks and stress harnesses use when
+#: present (they fall back to the bundled library, and say so, when it is not)
+SHARED_DATA = Path(os.environ.get("STORYBEAM_SHARED_DATA", REPO_ROOT.parent / "shared" / "data"))
+SHARED_CMU = SHARED_DATA / "cmu"
 
 __all__ = ["REPO_ROOT", "ASSETS", "MOTIONS_DIR", "CHARACTERS_DIR", "UI_ASSETS", "FONTS_DIR", "FONT_PATH",
-           "BOARDS_DIR"]
+           "BOARDS_DIR", "SHARED_DATA", "SHARED_CMU"]

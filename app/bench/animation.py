@@ -22,7 +22,7 @@ from typing import Callable
 
 import numpy as np
 
-from app.bench.retrieval import SHARED_CMU
+from app.paths import SHARED_CMU
 from app.paths import MOTIONS_DIR
 from ar import default_projector, look_at
 from ar.render import CHARACTER_NAMES, CharacterRig, ProjectorRenderer, build_character, scaled_model

@@ -13,7 +13,7 @@ import csv
 import time
 from pathlib import Path
 
-from app.bench.retrieval import SHARED_CMU
+from app.paths import SHARED_CMU
 from retrieval.errors import DatasetError, StoryBeamError
 from retrieval.motion.formats import clear_skeleton_cache, load_motion
 

@@ -28,7 +28,7 @@ import numpy as np
 from tqdm import tqdm
 
 from app.bench.scale_library import build_scale_library
-from app.paths import MOTIONS_DIR, REPO_ROOT
+from app.paths import MOTIONS_DIR, SHARED_CMU
 from app.progress import progress_bar
 from retrieval.codes import DiffTable, Quantizer, table_bytes
 from retrieval.dtw import HAVE_NUMBA, dtw_codes
@@ -42,7 +42,6 @@ from retrieval.search import warm_up as warm_up_fast
 #: the bundled library (the fallback when the shared CMU set is absent)
 BUNDLED_LIBRARY = MOTIONS_DIR
 #: the shared CMU set beside the checkout ($STORYBEAM_SHARED_DATA/cmu)
-SHARED_CMU = Path(os.environ.get("STORYBEAM_SHARED_DATA", REPO_ROOT.parent / "shared" / "data")) / "cmu"
 
 #: Protocol rows: (method name, label printed in the table).
 PROTOCOL_ROWS = (

@@ -19,7 +19,7 @@ from typing import Callable
 
 from tqdm import tqdm
 
-from app.paths import MOTIONS_DIR, REPO_ROOT
+from app.paths import MOTIONS_DIR, SHARED_CMU
 from app.stress.atheris_fuzz import require_atheris, run_atheris_campaign  # cheap: stdlib, app.paths, errors
 from retrieval.errors import StoryBeamError
 
@@ -106,14 +106,13 @@ def run(args: argparse.Namespace) -> int:
 def _run_fuzz(args: argparse.Namespace, work: Path) -> dict:
     from app.stress import fuzz_motion as fuzz  # deferred: the stress layer (numpy, the loaders) only when run
 
-    cmu = REPO_ROOT.parent / "shared" / "data" / "cmu"
-    seeds = fuzz.collect_seeds(cmu if cmu.is_dir() else None, MOTIONS_DIR / "bvh")
+    seeds = fuzz.collect_seeds(SHARED_CMU if SHARED_CMU.is_dir() else None, MOTIONS_DIR / "bvh")
     with tqdm(total=args.fuzz_inputs, desc="fuzz motion files", unit="input", file=sys.stderr) as bar:
         stats = fuzz.run_campaign(seeds, inputs=args.fuzz_inputs, seconds=args.seconds, rng_seed=args.seed,
                                   crash_dir=work / "crashes", progress=bar.update)
     out = stats.to_dict()
     out["seeds"] = {k: sum(1 for s in seeds if s.kind == k) for k in fuzz.KINDS}
-    out["seed_source"] = "shared CMU" if cmu.is_dir() else "bundled BVH"
+    out["seed_source"] = "shared CMU" if SHARED_CMU.is_dir() else "bundled BVH"
     out["probes"] = fuzz.memory_probes(work)
     out["failures"] = sum(1 for p in out["probes"] if not p["ok"])
     return out

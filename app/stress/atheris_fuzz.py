@@ -29,13 +29,11 @@ import tempfile
 from pathlib import Path
 from typing import Callable
 
-from app.paths import MOTIONS_DIR, REPO_ROOT
+from app.paths import MOTIONS_DIR, REPO_ROOT, SHARED_CMU
 from retrieval.errors import MotionFormatError, StoryBeamError
 
 #: The command that installs the fuzzer (what the error says when it is missing).
 INSTALL_HINT = "pip install atheris"
-#: The shared CMU data, when the checkout sits next to it (more varied seeds than the bundle).
-SHARED_CMU = REPO_ROOT.parent / "shared" / "data" / "cmu"
 #: Per-input limits handed to libFuzzer: seconds before an input counts as a hang, and MB of RSS.
 INPUT_TIMEOUT_S = 10
 RSS_LIMIT_MB = 3000
