@@ -9,7 +9,10 @@ names below from ``ar``):
 * :mod:`ar.pose` -- board pose from one camera frame (IPPE + refinement);
 * :mod:`ar.filtering` -- temporal filtering and the tracking / holding / lost state;
 * :mod:`ar.calibration` -- camera and projector-camera calibration, validated JSON;
-* :mod:`ar.synthetic` -- an exact synthetic camera and projector with known truth.
+* :mod:`ar.synthetic` -- an exact synthetic camera and projector with known truth, and
+  recorded hand-held rig sessions (blur, noise, exposure, a hand) with their true poses;
+* :mod:`ar.camera_sources` -- camera frames from a device, a video file, a folder of images;
+* :mod:`ar.live` -- tracking on its own threads (newest frame wins, dropped frames counted).
 
 Needs OpenCV and numpy only. Rendering (pyrender, trimesh, OpenGL) lives in the
 subpackage :mod:`ar.render`, which is *not* imported here, so ``import ar`` works where
@@ -19,7 +22,7 @@ imports ``app`` or Kivy.
 """
 from __future__ import annotations
 
-from ar.boards import BOARD_KINDS, DEFAULT_BOARD_SPEC, Board, BoardDetection, BoardSpec, write_board
+from ar.boards import BOARD_KINDS, DEFAULT_BOARD_SPEC, Board, BoardDetection, BoardSpec, board_dictionary, write_board
 from ar.calibration import (
     CAPTURE_LOG,
     CameraCalibration,
@@ -42,6 +45,16 @@ from ar.calibration import (
     rig_pose_for_step,
     validate_intrinsics,
     write_capture,
+)
+from ar.camera_sources import (
+    CameraFrame,
+    CameraSource,
+    CameraSourceError,
+    FrameListSource,
+    ImageFolderSource,
+    OpenCVDeviceSource,
+    VideoFileSource,
+    open_camera_source,
 )
 from ar.errors import BoardSpecError, CalibrationError
 from ar.filtering import (
@@ -67,10 +80,21 @@ from ar.geometry import (
     rotation_angle_deg,
     to_rvec_tvec,
 )
-from ar.pose import PoseEstimate, draw_pose, estimate_board_pose, pose_confidence, pose_covariance, solve_board_pose
+from ar.live import LiveResult, LiveStats, LiveTracker
+from ar.pose import (
+    PoseEstimate,
+    RegionPoseEstimator,
+    draw_pose,
+    estimate_board_pose,
+    pose_confidence,
+    pose_covariance,
+    solve_board_pose,
+)
 from ar.synthetic import (
     Degradation,
     PinholeModel,
+    RigSession,
+    SessionConfig,
     SyntheticCamera,
     TrajectoryConfig,
     calibration_poses,
@@ -79,7 +103,9 @@ from ar.synthetic import (
     default_proj_from_cam,
     default_projector,
     handheld_trajectory,
+    load_session_truth,
     make_table_texture,
+    record_rig_session,
 )
 
 __all__ = [
@@ -89,9 +115,13 @@ __all__ = [
     "make_transform", "from_rvec_tvec", "to_rvec_tvec", "invert", "rotation_angle_deg", "pose_error", "look_at",
     "project_points", "pixels_to_plane", "rays_to_plane",
     # boards
-    "DEFAULT_BOARD_SPEC", "BOARD_KINDS", "BoardSpec", "BoardDetection", "Board", "write_board",
+    "DEFAULT_BOARD_SPEC", "BOARD_KINDS", "BoardSpec", "BoardDetection", "Board", "board_dictionary", "write_board",
     # pose
     "PoseEstimate", "pose_covariance", "pose_confidence", "solve_board_pose", "estimate_board_pose", "draw_pose",
+    "RegionPoseEstimator",
+    # camera sources and live tracking
+    "CameraSourceError", "CameraFrame", "CameraSource", "OpenCVDeviceSource", "VideoFileSource", "ImageFolderSource",
+    "FrameListSource", "open_camera_source", "LiveResult", "LiveStats", "LiveTracker",
     # filtering
     "TRACKING", "HOLDING", "LOST", "OneEuroParams", "PoseOneEuroFilter", "KalmanParams", "PoseKalmanFilter",
     "TrackerOutput", "PoseTracker",
@@ -104,5 +134,5 @@ __all__ = [
     # synthetic bench
     "PinholeModel", "default_camera", "default_projector", "default_proj_from_cam", "Degradation",
     "make_table_texture", "SyntheticCamera", "TrajectoryConfig", "handheld_trajectory", "calibration_poses",
-    "capture_projector_sequence",
+    "capture_projector_sequence", "SessionConfig", "RigSession", "record_rig_session", "load_session_truth",
 ]

@@ -108,6 +108,98 @@ def estimate_board_pose(image: np.ndarray, board: Board, K: np.ndarray, dist: np
     return solve_board_pose(detection, K, dist)
 
 
+class RegionPoseEstimator:
+    """Board pose frame after frame, searching where the last pose says the board is.
+
+    Method: after a frame with a pose, the board's pattern is projected with that pose
+    and the next frame is searched only inside its bounding box, grown by a margin
+    (``margin_px`` plus ``margin_motion`` times how far the projected corners moved
+    between the last two poses, so a fast hand widens it). When the projected markers
+    are large (``min_marker_px`` times ``scale`` and more) the markers are found on an
+    image shrunk ``scale`` times and the corners refined at full resolution (see
+    :meth:`ar.boards.Board.detect`). If the region search finds nothing, or there is
+    no recent pose (``max_gap`` frames without one), the whole frame is searched, so the
+    result can only differ from :func:`estimate_board_pose` when the board is found in
+    the region: the same detector, then on a crop. ``counts`` records which path each
+    frame took (``region``, ``full``, ``fallback`` = region missed then full frame,
+    ``lost``).
+    """
+
+    def __init__(self, board: Board, K: np.ndarray, dist: np.ndarray, margin_px: float = 24.0,
+                 margin_motion: float = 2.0, min_marker_px: float = 24.0, max_scale: int = 2, max_gap: int = 2):
+        self.board = board
+        self.K = np.asarray(K, np.float64)
+        self.dist = np.asarray(dist, np.float64).ravel()
+        self.margin_px = margin_px
+        self.margin_motion = margin_motion
+        self.min_marker_px = min_marker_px
+        self.max_scale = max(1, int(max_scale))
+        self.max_gap = max_gap
+        w, h = board.pattern_size_m
+        self._quad = np.array([[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0]], np.float64)
+        self.counts = {"region": 0, "full": 0, "fallback": 0, "lost": 0}
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the last pose (the next frame is searched whole)."""
+        self._last_px: np.ndarray | None = None
+        self._motion_px = 0.0
+        self._gap = 0
+
+    def predicted_region(self, image_size: tuple[int, int]) -> tuple[tuple[int, int, int, int], int] | None:
+        """``((x0, y0, x1, y1), scale)`` to search next, or ``None`` for the whole frame."""
+        if self._last_px is None or self._gap > self.max_gap:
+            return None
+        q = self._last_px
+        margin = self.margin_px + self.margin_motion * self._motion_px * (1 + self._gap)
+        x0, y0 = np.floor(q.min(0) - margin)
+        x1, y1 = np.ceil(q.max(0) + margin)
+        w, h = image_size
+        box = (int(max(0, x0)), int(max(0, y0)), int(min(w, x1)), int(min(h, y1)))
+        if box[2] - box[0] < 32 or box[3] - box[1] < 32:
+            return None
+        scale = 1
+        if self.board.spec.kind != "checker":
+            s = self.board.spec
+            edges = np.linalg.norm(np.roll(q, -1, 0) - q, axis=1)  # top, right, bottom, left
+            square_px = min(edges[0] / s.cols, edges[2] / s.cols, edges[1] / s.rows, edges[3] / s.rows)
+            marker_px = square_px * (s.marker_m / s.square_m if s.kind == "charuco" else 1.0)
+            while scale < self.max_scale and marker_px / (scale + 1) >= self.min_marker_px:
+                scale += 1
+        return box, scale
+
+    def estimate(self, image: np.ndarray) -> PoseEstimate | None:
+        """This frame's pose (``None`` when the board is not found anywhere)."""
+        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        h, w = gray.shape[:2]
+        plan = self.predicted_region((w, h))
+        estimate = None
+        if plan is not None:
+            box, scale = plan
+            detection = self.board.detect(gray, box, scale)
+            estimate = solve_board_pose(detection, self.K, self.dist) if detection is not None else None
+            path = "region" if estimate is not None else "fallback"
+        else:
+            path = "full"
+        if estimate is None:
+            estimate = estimate_board_pose(gray, self.board, self.K, self.dist)
+        if estimate is None:
+            self.counts["lost"] += 1
+            self._gap += 1
+            return None
+        self.counts[path] += 1
+        px = cv2.projectPoints(self._quad.reshape(-1, 1, 3), cv2.Rodrigues(estimate.T_cam_from_board[:3, :3])[0],
+                               estimate.T_cam_from_board[:3, 3], self.K, self.dist)[0].reshape(-1, 2)
+        if not np.all(np.isfinite(px)):
+            self.reset()
+            return estimate
+        if self._last_px is not None and self._gap == 0:
+            self._motion_px = float(np.max(np.linalg.norm(px - self._last_px, axis=1)))
+        self._last_px = px
+        self._gap = 0
+        return estimate
+
+
 def draw_pose(image: np.ndarray, estimate: PoseEstimate | None, K: np.ndarray, dist: np.ndarray,
               axis_len_m: float = 0.06) -> np.ndarray:
     """Camera frame with detected corners and the board axes drawn (x red, y green, z blue)."""

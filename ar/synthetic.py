@@ -19,12 +19,13 @@ wander plus physiological tremor, like a rig held over a table.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import cv2
 import numpy as np
 
 from ar.boards import Board
-from ar.calibration import place_pattern, rig_pose_for_step
+from ar.calibration import CameraCalibration, ProjectorCalibration, place_pattern, rig_pose_for_step
 from ar.geometry import invert, look_at, make_transform, project_points
 
 
@@ -40,6 +41,16 @@ class PinholeModel:
     @property
     def size(self) -> tuple[int, int]:
         return (self.width, self.height)
+
+    def scaled(self, width: int, height: int) -> "PinholeModel":
+        """The same lens at another resolution (intrinsics scaled about pixel corners; distortion unchanged)."""
+        sx, sy = width / self.width, height / self.height
+        K = self.K.copy()
+        K[0, 0] *= sx
+        K[0, 2] = (K[0, 2] + 0.5) * sx - 0.5
+        K[1, 1] *= sy
+        K[1, 2] = (K[1, 2] + 0.5) * sy - 0.5
+        return PinholeModel(K, self.dist.copy(), int(width), int(height))
 
 
 def default_camera() -> PinholeModel:
@@ -321,3 +332,168 @@ def capture_projector_sequence(cam: SyntheticCamera, sequence, degradation: Degr
         frames = {name: cam.render(T, getattr(pattern, name), degradation, rng) for name in step.shows}
         out.append((step, T, pattern, frames))
     return out
+
+
+# ---------------------------------------------------------------------- recorded rig sessions
+@dataclass
+class SessionConfig:
+    """A recorded handheld rig session: how the hand moves and what the camera suffers.
+
+    ``shutter`` is the exposure time as a fraction of the frame time (motion blur length);
+    the exposure follows a slow drift of ``exposure_drift`` plus an auto-exposure dip to
+    ``exposure_dip`` a third of the way in (recovering over ``dip_frames``); a hand enters
+    over the board at ``hand_at`` (fraction of the session), covers up to ``hand_cover`` of
+    it, and leaves after ``hand_frames``.
+    """
+
+    fps: float = 30.0
+    distance_m: float = 0.5
+    wander_deg: float = 6.0  # twice the bench's: a child's hand, not a steady one
+    wander_m: float = 0.03
+    tremor_deg: float = 0.1
+    tremor_m: float = 0.0006
+    shutter: float = 0.5
+    noise_sigma: float = 2.5
+    shot_noise: float = 0.3
+    exposure_drift: float = 0.15
+    exposure_dip: float = 0.45
+    dip_frames: int = 15
+    hand_at: float = 0.6
+    hand_frames: int = 30
+    hand_cover: float = 0.3
+    swing_at: float = 0.15  # a quick look aside and back (fraction of the session) ...
+    swing_deg: float = 5.0  # ... this far ...
+    swing_frames: int = 20  # ... over this many frames (the blur of a fast move)
+    supersample: int = 2
+    seed: int = 0
+
+
+@dataclass
+class RigSession:
+    """Frames (BGR uint8) of a handheld session and, for each, the true ``T_cam_from_board``
+    and what was done to it (``exposure``, ``blur_px`` = motion-blur length, ``hand`` = covered fraction)."""
+
+    frames: list
+    poses: list
+    fps: float
+    camera: PinholeModel
+    exposure: np.ndarray
+    blur_px: np.ndarray
+    hand: np.ndarray
+
+    def write(self, folder, video: str | None = None) -> dict:
+        """Write ``frame_00000.png`` ... and ``truth.npz`` (poses, fps, K, dist, exposure, blur_px,
+        hand) into ``folder``; with ``video`` (a file name, beside the folder) also that video
+        (mp4v codec, lossy). ``camera.json`` and ``projector.json`` (the true rig of
+        :func:`default_projector` and :func:`default_proj_from_cam` at the camera's size, the
+        files calibration writes) go into the folder and beside the video, so the recording
+        is a complete rig for ``storybeam app --camera``. Returns the paths written
+        (``{"folder", "truth", "video"}``)."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        for i, frame in enumerate(self.frames):
+            cv2.imwrite(str(folder / f"frame_{i:05d}.png"), frame)
+        proj = default_projector().scaled(*self.camera.size)
+        R, t = default_proj_from_cam()[:3, :3], default_proj_from_cam()[:3, 3]
+        calibration = (CameraCalibration(self.camera.K, self.camera.dist, self.camera.size, 0.0, board="synthetic"),
+                       ProjectorCalibration(proj.K, proj.dist, proj.size, R, t, 0.0))
+        truth = folder / "truth.npz"
+        np.savez(truth, poses=np.asarray(self.poses), fps=self.fps, K=self.camera.K, dist=self.camera.dist,
+                 size=np.asarray(self.camera.size), exposure=self.exposure, blur_px=self.blur_px, hand=self.hand)
+        out = {"folder": folder, "truth": truth, "video": None}
+        calibration[0].save(folder / "camera.json")
+        calibration[1].save(folder / "projector.json")
+        if video:
+            path = folder.parent / video if not Path(video).is_absolute() else Path(video)
+            calibration[0].save(path.parent / "camera.json")
+            calibration[1].save(path.parent / "projector.json")
+            writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, self.camera.size)
+            try:
+                for frame in self.frames:
+                    writer.write(frame)
+            finally:
+                writer.release()
+            out["video"] = path
+        return out
+
+
+def load_session_truth(path) -> dict:
+    """The ``truth.npz`` a :meth:`RigSession.write` left (a folder or the file itself)."""
+    path = Path(path)
+    with np.load(path / "truth.npz" if path.is_dir() else path) as data:
+        return {k: data[k] for k in data.files}
+
+
+def _motion_blur(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """Average of the image shifted along the segment (-d/2 .. d/2): a straight-line motion blur."""
+    length = float(np.hypot(dx, dy))
+    if length < 0.5:
+        return img
+    n = int(np.ceil(length)) | 1
+    size = n + 2
+    kernel = np.zeros((size, size), np.float32)
+    c = size // 2
+    for s in np.linspace(-0.5, 0.5, 4 * n):
+        x, y = c + s * dx / length * n, c + s * dy / length * n
+        x0, y0 = int(np.floor(x)), int(np.floor(y))
+        fx, fy = x - x0, y - y0
+        for xx, yy, wgt in ((x0, y0, (1 - fx) * (1 - fy)), (x0 + 1, y0, fx * (1 - fy)),
+                            (x0, y0 + 1, (1 - fx) * fy), (x0 + 1, y0 + 1, fx * fy)):
+            if 0 <= xx < size and 0 <= yy < size:
+                kernel[yy, xx] += wgt
+    kernel /= kernel.sum()
+    return cv2.filter2D(img, -1, kernel, borderType=cv2.BORDER_REPLICATE)
+
+
+def record_rig_session(board: Board, n_frames: int = 150, camera: PinholeModel | None = None,
+                       cfg: SessionConfig | None = None) -> RigSession:
+    """Film a handheld rig session with the synthetic camera, keeping the true poses.
+
+    Method: a :func:`handheld_trajectory` with twice the bench's wander and one quick
+    turn aside and back (``swing_deg``, up to about 4 px of blur); each frame is
+    rendered exactly (no degradation), then, in the order a camera applies them:
+    the hand (a skin-coloured blob entering from one side of the board, its covered
+    fraction ramping 0 -> ``hand_cover`` -> 0), the exposure (drift and dip), a
+    straight-line motion blur whose length and direction are the image motion of the
+    board centre during the shutter time, and shot + read noise.
+    """
+    cfg = cfg or SessionConfig()
+    camera = camera or default_camera().scaled(640, 480)
+    cam = SyntheticCamera(board, camera=camera, supersample=cfg.supersample)
+    traj = TrajectoryConfig(distance_m=cfg.distance_m, fps=cfg.fps, wander_deg=cfg.wander_deg, wander_m=cfg.wander_m,
+                            tremor_deg=cfg.tremor_deg, tremor_m=cfg.tremor_m, seed=cfg.seed)
+    poses = handheld_trajectory(board, n_frames + 1, traj)  # one extra: the motion into frame 0
+    s0 = int(cfg.swing_at * n_frames)
+    for i in range(s0, min(n_frames + 1, s0 + cfg.swing_frames)):  # turn about the camera's own y axis
+        angle = np.radians(cfg.swing_deg) * np.sin(np.pi * (i - s0) / cfg.swing_frames) ** 2
+        poses[i] = make_transform(cv2.Rodrigues(np.array([0.0, angle, 0.0]))[0], np.zeros(3)) @ poses[i]
+    rng = np.random.default_rng(cfg.seed + 1)
+    t = np.arange(n_frames) / cfg.fps
+    exposure = 1.0 + cfg.exposure_drift * np.sin(2 * np.pi * 0.15 * t + rng.uniform(0, 2 * np.pi))
+    dip_at = n_frames // 3
+    k = np.arange(n_frames) - dip_at
+    exposure = exposure * np.where(k >= 0, 1.0 - (1.0 - cfg.exposure_dip) * np.exp(-np.maximum(k, 0) / max(1, cfg.dip_frames / 3)), 1.0)
+    hand = np.zeros(n_frames)
+    h0 = int(cfg.hand_at * n_frames)
+    for i in range(h0, min(n_frames, h0 + cfg.hand_frames)):
+        phase = (i - h0 + 0.5) / cfg.hand_frames
+        hand[i] = cfg.hand_cover * np.sin(np.pi * phase)
+    hand_seed = int(rng.integers(1 << 30))
+    centre = board.centre[None]
+    blur_px = np.zeros(n_frames)
+    frames = []
+    for i in range(n_frames):
+        T_prev, T = poses[i], poses[i + 1]
+        img = cam.render(T, degradation=Degradation(noise_sigma=0.0), rng=rng).astype(np.float32)
+        if hand[i] > 0.01:
+            img = cam._occlude(img, T, float(hand[i]), np.random.default_rng(hand_seed), 1.0)
+        img = img * exposure[i]
+        p0 = project_points(centre, T_prev, camera.K, camera.dist)[0]
+        p1 = project_points(centre, T, camera.K, camera.dist)[0]
+        d = (p1 - p0) * cfg.shutter
+        blur_px[i] = float(np.hypot(*d))
+        img = _motion_blur(img, float(d[0]), float(d[1]))
+        img = img + rng.normal(0, 1, img.shape).astype(np.float32) * np.sqrt(np.maximum(img, 0) * cfg.shot_noise)
+        img = img + rng.normal(0, cfg.noise_sigma, img.shape).astype(np.float32)
+        frames.append(np.clip(img + 0.5, 0, 255).astype(np.uint8))
+    return RigSession(frames, poses[1:], cfg.fps, camera, exposure, blur_px, hand)

@@ -57,6 +57,8 @@ ERRORS = "retrieval.errors"
 RETRIEVAL_ALLOWED: dict[str, tuple[str, ...]] = {
     "retrieval": (),  # the package docstring only
     ERRORS: (),
+    # durable file writes (stdlib only): the lowest layer, for ar's calibration files and app's store
+    "retrieval.durable": (),
     "retrieval.motion": (ERRORS,),
     "retrieval.features": (ERRORS, "retrieval.motion"),
     "retrieval.codes": (ERRORS,),  # codes work on any feature matrix
@@ -76,9 +78,9 @@ RETRIEVAL_ALL = tuple(RETRIEVAL_ALLOWED)
 #: What the product side of app/ may use of retrieval: it searches only through
 #: retrieval.library (MotionIndex), never dtw/search/experiment directly.
 RETRIEVAL_PRODUCT = (
-    ERRORS, "retrieval.motion", "retrieval.features", "retrieval.codes", "retrieval.library", "retrieval.animation",
+    ERRORS, "retrieval.durable", "retrieval.motion", "retrieval.features", "retrieval.codes", "retrieval.library", "retrieval.animation",
 )
-AR_ALL = ("ar", "ar.render", "ar.closed_loop")
+AR_ALL = ("ar", "ar.scene", "ar.render", "ar.closed_loop")
 #: Shared by every part of app/: the checkout's paths, the progress-bar callback.
 APP_BASE = ("app.paths", "app.progress")
 
@@ -86,18 +88,22 @@ APP_BASE = ("app.paths", "app.progress")
 ALLOWED: dict[str, tuple[str, ...]] = {
     **RETRIEVAL_ALLOWED,
     # ar core (errors, geometry, boards, pose, filtering, calibration, synthetic): no rendering
-    "ar": (ERRORS,),
-    # the pyrender/trimesh renderers and characters, on top of the core
-    "ar.render": ("ar", ERRORS, "retrieval.motion", "retrieval.animation"),
+    "ar": (ERRORS, "retrieval.durable"),
+    # the renderer-agnostic scene (numpy meshes, characters, views): no GL, no trimesh
+    "ar.scene": ("ar", ERRORS, "retrieval.motion", "retrieval.animation"),
+    # the pyrender/trimesh renderer, on top of the core and the scene
+    "ar.render": ("ar", "ar.scene", ERRORS, "retrieval.motion", "retrieval.animation"),
     # the closed loop checks landings by rendering through ar.render
-    "ar.closed_loop": ("ar", "ar.render", ERRORS),
+    "ar.closed_loop": ("ar", "ar.scene", "ar.render", ERRORS),
     "app": (),
     "app.paths": (),
     "app.progress": (),
     "app.story": (*APP_BASE, *RETRIEVAL_PRODUCT),
     "app.services": (*APP_BASE, "app.story", "ar", *RETRIEVAL_PRODUCT),
     "app.scene": (*APP_BASE, "app.story", *AR_ALL, *RETRIEVAL_PRODUCT),
-    "app.ui": (*APP_BASE, "app.story", "app.services", "app.scene", *RETRIEVAL_PRODUCT),
+    # app.ui draws ar.scene descriptions with Kivy GL (app.ui.gl); never ar.render (pyrender)
+    "app.ui": (*APP_BASE, "app.story", "app.services", "app.scene", "ar.scene", *RETRIEVAL_PRODUCT,
+               "ar"),  # ar core: the Kivy camera is an ar.camera_sources.CameraSource (issue 13)
     # harnesses: anything of the library, never the UI (bench) or the commands
     "app.bench": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene"),
     "app.stress": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene", "app.ui"),
@@ -110,6 +116,7 @@ _NO_UI = ("kivy", "pyrender", "OpenGL", "trimesh", "cv2")
 FORBIDDEN_THIRD_PARTY: dict[str, tuple[str, ...]] = {
     **{unit: (*_NO_UI, "tqdm", "dtaidistance", "PIL", "imageio", "imageio_ffmpeg") for unit in RETRIEVAL_ALL},
     "ar": ("kivy", "pyrender", "OpenGL", "trimesh", "tqdm", "dtaidistance"),
+    "ar.scene": ("kivy", "pyrender", "OpenGL", "trimesh", "tqdm", "dtaidistance"),
     "ar.render": ("kivy",),
     "ar.closed_loop": ("kivy",),
     "app.paths": ("kivy", "pyrender", "OpenGL", "trimesh", "cv2"),
@@ -144,6 +151,7 @@ RUNTIME_FORBIDDEN: dict[str, tuple[tuple[str, ...], tuple[str, ...], tuple[str, 
     ),
     "ar": (("ar",), (), ("kivy", "app")),
     "ar-core": (("ar",), ("ar.render", "ar.closed_loop"), ("kivy", "app", "pyrender", "OpenGL", "trimesh")),
+    "ar.scene": (("ar.scene",), (), ("kivy", "app", "pyrender", "OpenGL", "trimesh")),
     "app.story": (("app.story",), (), ("kivy", "pyrender", "OpenGL", "trimesh", "cv2", "ar")),
     "app.services": (("app.services",), (), ("kivy", "pyrender", "OpenGL", "trimesh")),
     "app.scene": (("app.scene",), (), ("kivy",)),

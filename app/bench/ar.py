@@ -19,6 +19,9 @@ Definitions
 """
 from __future__ import annotations
 
+import concurrent.futures
+import multiprocessing
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,10 +36,12 @@ from ar.calibration import (CameraCalibration, ProjectorCalibration, ProjectorCa
 from ar.closed_loop import LandingCheck
 from ar.filtering import TRACKING, PoseKalmanFilter, PoseOneEuroFilter, PoseTracker
 from ar.geometry import pose_error, rotation_angle_deg
-from ar.pose import draw_pose, estimate_board_pose
+from ar.pose import RegionPoseEstimator, draw_pose, estimate_board_pose
 from ar.render import ProjectorRenderer, add_test_scene
+from ar.scene import SceneDescription, View, add_character, build_character, projector_from_scene, rest_motion, scaled_model
 from ar.synthetic import (Degradation, SyntheticCamera, TrajectoryConfig, calibration_poses,
-                          capture_projector_sequence, handheld_trajectory)
+                          capture_projector_sequence, default_camera, default_proj_from_cam, default_projector,
+                          handheld_trajectory)
 
 
 @dataclass
@@ -251,3 +256,182 @@ def write_examples(folder: Path, examples: dict) -> list[Path]:
             im.save(path, optimize=True)
             written.append(path)
     return written
+
+
+# ------------------------------------------------------------------ camera frame -> projector frame
+#: the rig's tracking and projector resolution for the frame timing (the app's ``RIG_SIZE``)
+FRAME_SIZE = (640, 480)
+
+
+def _pyrender_renderer():
+    """The reference renderer (pyrender through EGL/OSMesa)."""
+    from ar.render.scene_render import PyrenderSceneRenderer  # deferred: pyrender, only in the process that measures it
+
+    return PyrenderSceneRenderer()
+
+
+#: renderer name -> factory (called once, in the process that measures it) of an object
+#: with ``render(SceneDescription) -> (H, W, 3) uint8`` (and optionally ``close()``). The
+#: app's Kivy GL renderer lives in ``app.ui``, which the benches may not import: the
+#: ``storybeam bench ar`` command plugs it in (:func:`app.commands.bench_cmd.kivy_gl_renderer`).
+FRAME_RENDERERS = {"pyrender": _pyrender_renderer}
+
+
+def pin_one_core() -> dict:
+    """Set OpenCV, BLAS/OpenMP, numba and Mesa llvmpipe to one thread (before any GL
+    context exists); returns what was set, for the JSON."""
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS", "LP_NUM_THREADS"):
+        os.environ[var] = "1"
+    cv2.setNumThreads(1)
+    affinity = None
+    if hasattr(os, "sched_setaffinity"):
+        cpus = sorted(os.sched_getaffinity(0))
+        os.sched_setaffinity(0, {cpus[0]})
+        affinity = cpus[0]
+    return {"opencv_threads": cv2.getNumThreads(), "LP_NUM_THREADS": 1, "OMP_NUM_THREADS": 1, "cpu": affinity}
+
+
+def stage_description(view, character, part_poses: np.ndarray, T_proj_from_scene: np.ndarray | None):
+    """What the projector shows: ``character`` (parts at ``part_poses``, scene frame) seen
+    from the tracked projector pose; no pose = an empty (black) frame."""
+    if T_proj_from_scene is None:
+        return SceneDescription(view)
+    desc = SceneDescription(View(view.width, view.height, view.K, T_proj_from_scene, view.znear, view.zfar))
+    add_character(desc, character, part_poses)
+    return desc
+
+
+def measure_frames(renderer_name: str, factory, conditions: list[Condition], frames: int = 100, seed: int = 0,
+                   board_spec: str = DEFAULT_BOARD_SPEC, one_core: bool = True) -> dict:
+    """Camera frame -> projector frame, timed on ``frames`` synthetic 640x480 frames per condition.
+
+    Per frame: board detection and pose on the region the last pose predicts
+    (:class:`ar.pose.RegionPoseEstimator`, whole frame when lost), the Kalman tracker, the
+    projector's scene (a 10 cm robot standing at the board centre, its 20-odd parts posed
+    per frame) and the render by
+    the renderer ``factory()`` makes. ``detect_pose_ms`` covers detection, pose and filter; ``render_ms``
+    making the description and rendering it; ``frame_ms`` both. The rig uses its true
+    calibration here (the accuracy part of :func:`run_bench` uses an estimated one).
+    ``before_detect_pose_ms``: the same frames through the detection as it was before
+    issue 13 (whole frame, the full 250-code dictionary), timed in the same loop, so the
+    ratio holds however busy the machine is. The ``*_ms`` figures are wall-clock; ``cpu``
+    holds the same figures in CPU time of the whole process (``time.process_time``: every
+    thread, the renderer's included), which on a shared, busy machine is the closer
+    estimate of what one idle core would take (wall-clock then also counts the time other
+    jobs held the core).
+    Meant to run in a fresh process (:func:`run_frame_bench`): GL and thread settings stay its own.
+    """
+    pinned = pin_one_core() if one_core else {}
+    renderer = factory()
+    board = Board(board_spec)
+    w, h = FRAME_SIZE
+    camera = scaled_model(default_camera(), w, h)
+    projector = scaled_model(default_projector(), w, h)
+    T_pc = default_proj_from_cam()
+    view = View(w, h, projector.K)
+    character = build_character("robot", 0.10)
+    motion = rest_motion(character, 30)
+    poses_char = character.all_part_poses(motion)  # (F, P, 4, 4), standing at the board centre
+    cam = SyntheticCamera(board, camera=camera, supersample=2)
+    out: dict = {"renderer": renderer_name, "size": [w, h], "threads": pinned, "conditions": {}}
+    for cond in conditions:
+        rng = np.random.default_rng(seed)
+        traj = TrajectoryConfig(**{**cond.trajectory.__dict__, "seed": seed})
+        truth = handheld_trajectory(board, frames, traj)
+        images = [cam.render(T, degradation=cond.degradation, rng=rng) for T in truth]
+        estimator = RegionPoseEstimator(board, camera.K, camera.dist)
+        tracker = PoseTracker()
+        legacy = Board(board_spec, full_dictionary=True)  # the detection before issue 13, timed alongside
+        det_ms, ren_ms, frame_ms, rot, trans, legacy_ms = [], [], [], [], [], []
+        cpu_det, cpu_ren, cpu_frame, cpu_legacy, lit = [], [], [], [], []
+        renderer.render(stage_description(view, character, poses_char[0], None))  # warm-up: GL set-up, uploads
+        for i, (img, T_true) in enumerate(zip(images, truth)):
+            t_legacy, c_legacy = time.perf_counter(), time.process_time()
+            estimate_board_pose(img, legacy, camera.K, camera.dist)
+            legacy_ms.append((time.perf_counter() - t_legacy) * 1000)
+            cpu_legacy.append((time.process_time() - c_legacy) * 1000)
+            t0, c0 = time.perf_counter(), time.process_time()
+            est = estimator.estimate(img)
+            track = tracker.update(est, i / traj.fps)
+            t1, c1 = time.perf_counter(), time.process_time()
+            T_ps = (projector_from_scene(track.T_cam_from_board, T_pc, board)
+                    if track.T_cam_from_board is not None else None)
+            light = renderer.render(stage_description(view, character, poses_char[i % len(poses_char)], T_ps))
+            t2, c2 = time.perf_counter(), time.process_time()
+            assert light.shape == (h, w, 3)
+            lit.append(float((light.max(axis=2) > 20).mean()))
+            det_ms.append((t1 - t0) * 1000)
+            ren_ms.append((t2 - t1) * 1000)
+            frame_ms.append((t2 - t0) * 1000)
+            cpu_det.append((c1 - c0) * 1000)
+            cpu_ren.append((c2 - c1) * 1000)
+            cpu_frame.append((c2 - c0) * 1000)
+            if est is not None:
+                r, t = pose_error(est.T_cam_from_board, T_true)
+                rot.append(r)
+                trans.append(t)
+        out["conditions"][cond.name] = {
+            "detect_pose_ms_median": _stat(det_ms, 50), "render_ms_median": _stat(ren_ms, 50),
+            "frame_ms_median": _stat(frame_ms, 50), "frame_ms_p95": _stat(frame_ms, 95),
+            "detect_rate": len(rot) / frames, "rot_err_deg_median": _stat(rot, 50),
+            "trans_err_mm_median": _stat(trans, 50), "search_paths": dict(estimator.counts),
+            "lit_fraction_median": _stat(lit, 50),  # share of projector pixels lit: the character is drawn
+            "before_detect_pose_ms_median": _stat(legacy_ms, 50),
+            "detect_pose_speedup": _stat(legacy_ms, 50) / max(1e-9, _stat(det_ms, 50)),
+            "cpu": {"detect_pose_ms_median": _stat(cpu_det, 50), "render_ms_median": _stat(cpu_ren, 50),
+                    "frame_ms_median": _stat(cpu_frame, 50), "frame_ms_p95": _stat(cpu_frame, 95),
+                    "before_detect_pose_ms_median": _stat(cpu_legacy, 50)}}
+    if hasattr(renderer, "close"):
+        renderer.close()
+    return out
+
+
+def _measure_in_child(args: tuple) -> dict:
+    try:
+        return measure_frames(*args)
+    except Exception as exc:  # noqa: BLE001 - a renderer that cannot start is reported, not fatal
+        return {"renderer": args[0], "error": f"{type(exc).__name__}: {exc}"}
+
+
+def run_frame_bench(conditions: list[Condition], frames: int = 100, seed: int = 0,
+                    renderers: dict | None = None, board_spec: str = DEFAULT_BOARD_SPEC,
+                    one_core: bool = True) -> dict:
+    """:func:`measure_frames` for each ``{name: factory}`` of ``renderers`` (default
+    :data:`FRAME_RENDERERS`), each in a fresh spawned process (its own GL context and thread
+    settings; a factory must be a module-level function so the process can import it);
+    ``{name: result}``, a renderer that could not run carries ``error``."""
+    results = {}
+    for name, factory in (renderers or FRAME_RENDERERS).items():
+        with concurrent.futures.ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+            job = (name, factory, conditions, frames, seed, board_spec, one_core)
+            results[name] = pool.submit(_measure_in_child, job).result()
+    return results
+
+
+def merge_frame_results(result: dict, frame_results: dict) -> None:
+    """Put each condition's per-renderer frame timings under ``result["conditions"][c]["renderers"]``."""
+    for name, res in frame_results.items():
+        for cond, c in result["conditions"].items():
+            entry = res.get("conditions", {}).get(cond) if "error" not in res else {"error": res["error"]}
+            if entry is not None:
+                c.setdefault("renderers", {})[name] = entry
+    result["frame"] = {name: {k: v for k, v in res.items() if k != "conditions"} for name, res in frame_results.items()}
+
+
+def format_frame_table(result: dict) -> str:
+    """Markdown table of the camera -> projector frame timings."""
+    lines = ["| condition | renderer | detect 640x480 | rot / trans med | detect+pose+filter ms (before, speed-up); "
+             "cpu ms | render ms; cpu | frame ms med / p95; cpu |", "|" + "---|" * 7]
+    for cond, c in result["conditions"].items():
+        for name, r in c.get("renderers", {}).items():
+            if "error" in r:
+                lines.append(f"| {cond} | {name} | not run: {r['error']} | | | | |")
+                continue
+            cpu = r["cpu"]
+            lines.append(f"| {cond} | {name} | {100 * r['detect_rate']:.0f} % | {r['rot_err_deg_median']:.3f} deg / "
+                         f"{r['trans_err_mm_median']:.2f} mm | {r['detect_pose_ms_median']:.1f} "
+                         f"({r['before_detect_pose_ms_median']:.1f}, x{r['detect_pose_speedup']:.1f}); "
+                         f"cpu {cpu['detect_pose_ms_median']:.1f} | {r['render_ms_median']:.1f}; cpu "
+                         f"{cpu['render_ms_median']:.1f} | {r['frame_ms_median']:.1f} / {r['frame_ms_p95']:.1f}; cpu "
+                         f"{cpu['frame_ms_median']:.1f} / {cpu['frame_ms_p95']:.1f} |")
+    return "\n".join(lines)

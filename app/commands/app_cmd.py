@@ -2,6 +2,11 @@
 
     storybeam app [--lang ja|en] [--db PATH] [--story ID | --demo-story]
                   [--screenshot PATH [--screen editor|home|play|projector|pin] [--size WxH]]
+                  [--preview auto|3d|2d] [--renderer kivy-gl|pyrender]
+
+A screenshot also writes ``PATH.json``: ``{"renderer": "kivy-gl" | "pyrender" | "2d",
+"screen": ...}`` -- which renderer drew the frame (play and projector wait, up to
+``SCREENSHOT_WAIT_S``, for their first 3-D frame).
 
 Cold start (process start to the first frame on screen) is measured and printed on every
 launch, because it is what a teacher waits for in front of a class.
@@ -10,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import json
 import os
 import shutil
 import tempfile
@@ -19,6 +25,8 @@ from pathlib import Path
 from retrieval.errors import StoryBeamError
 
 SCREENS = ("editor", "home", "play", "projector", "pin")
+#: the longest a --screenshot of play / projector waits for its first 3-D frame
+SCREENSHOT_WAIT_S = 90.0
 
 
 def process_age_s() -> float | None:
@@ -51,10 +59,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                         "(opens the demo story unless --story is given)")
     p.add_argument("--screen", choices=SCREENS, default=None, help="with --screenshot: which screen (default editor)")
     p.add_argument("--size", default="1280x800", help="window size WxH (default 1280x800)")
+    p.add_argument("--camera", metavar="SOURCE",
+                   help="the rig's camera: a device number (0), a video file (session.mp4) or a folder of "
+                        "images (frames/); a recording plays looped at its frame rate in place of the camera. "
+                        "Calibration: camera.json + projector.json in the profile folder, else beside the "
+                        "recording (default: the teacher's setting, else 0)")
     p.add_argument("--preview", choices=("auto", "3d", "2d"), default="auto",
-                   help="Play preview and projector screen: 3-D characters (pyrender, on its own thread; "
-                        "the projector through the tracked rig) or the 2-D top-down animation; "
-                        "auto = 3-D when pyrender is installed, except with --screenshot")
+                   help="Play preview and projector screen: 3-D characters (the projector through the "
+                        "tracked rig) or the 2-D top-down animation; auto = 3-D, except for a --screenshot "
+                        "of another screen than play or projector")
+    p.add_argument("--renderer", choices=("kivy-gl", "pyrender"), default="kivy-gl",
+                   help="who draws the 3-D frames: Kivy's OpenGL ES 2 on the UI thread (default, every "
+                        "device) or pyrender on the render thread (desktop, the reference renderer)")
     p.set_defaults(func=run)
 
 
@@ -68,6 +84,30 @@ def _parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def _camera_choice(option: str | None, db: Path) -> str:
+    """``--camera``, else the teacher's saved choice, else device 0. A recording given with
+    ``--camera`` is checked here (a missing or unreadable file is one clear error before any
+    window opens); a saved choice that no longer opens falls back to device 0 with a warning."""
+    from app.scene.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice  # deferred: app start-up only
+    from app.story.storage import ProfileStore  # deferred: as above
+
+    if option is not None:
+        return check_camera_choice(option)  # raises CameraSourceError naming the problem
+    saved = None
+    if db.is_file():
+        try:
+            with ProfileStore(db) as store:
+                saved = store.get_setting(CAMERA_SETTING)
+        except StoryBeamError:
+            pass  # an unreadable profile is the app's to recover (it opens a fresh one); the default camera
+    if saved:
+        try:
+            return check_camera_choice(saved)
+        except StoryBeamError as exc:
+            print(f"warning: the saved rig camera cannot be used ({exc}); using camera {DEFAULT_CAMERA}")
+    return DEFAULT_CAMERA
+
+
 def run(args: argparse.Namespace) -> int:
     # deferred: the story store (sqlite, numpy) loads only when the app launches, not for `storybeam --help`
     from app.story.storage import ProfileStore, StorageError, default_profile_path
@@ -78,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
         with ProfileStore(db) as store:  # fail here, plainly, before a window opens
             if not store.has_story(args.story):
                 raise StorageError(f"{db}: no story with id '{args.story}'")
+    camera = _camera_choice(args.camera, db)
     screenshot = Path(args.screenshot) if args.screenshot else None
     demo = args.demo_story or (screenshot is not None and not args.story)
     screen = args.screen or ("editor" if (args.story or demo) else None)
@@ -106,23 +147,51 @@ def run(args: argparse.Namespace) -> int:
                 Clock.schedule_once(self._capture, 0)
 
         def _capture(self, _dt):
+            if use_3d and screen in ("play", "projector") and self.renderer is not None:
+                drawn = getattr(self._shown_screen(), "drawn_by", None) or getattr(
+                    getattr(self._shown_screen(), "player", None), "drawn_by", None)
+                waited = time.perf_counter() - result.setdefault("capture_wait_t0", time.perf_counter())
+                if drawn is None and self.renderer.alive and waited < SCREENSHOT_WAIT_S:
+                    Clock.schedule_once(self._capture, 0.1)  # wait for the first 3-D frame
+                    return
             try:
                 screenshot.parent.mkdir(parents=True, exist_ok=True)
                 with tempfile.TemporaryDirectory() as tmp:
                     Window.dispatch("on_draw")  # redraw into the back buffer (undefined after a flip)
                     written = Window.screenshot(name=os.path.join(tmp, "frame.png"))
                     shutil.move(written, screenshot)
-                print(f"screenshot: {screenshot}")
+                info = self._screenshot_info()
+                Path(f"{screenshot}.json").write_text(json.dumps(info, indent=2))
+                print(f"screenshot: {screenshot} (drawn by {info['renderer']})")
             except OSError as exc:
                 result["error"] = f"{screenshot}: cannot save screenshot ({exc})"
             self.stop()
 
-    use_3d = args.preview == "3d" or (args.preview == "auto" and screenshot is None
-                                      and importlib.util.find_spec("pyrender") is not None)
+        def _shown_screen(self):
+            return self.sm.current_screen
+
+        def _screenshot_info(self) -> dict:
+            """What drew the screenshot: ``renderer`` is "kivy-gl" or "pyrender" when the
+            screen shows a 3-D frame, "2d" when it shows the 2-D drawing."""
+            shown = self._shown_screen()
+            drawn = getattr(shown, "drawn_by", None) or getattr(getattr(shown, "player", None), "drawn_by", None)
+            if shown.name not in ("play", "projector") or (shown.name == "projector" and not shown.use_stage):
+                drawn = None
+            info = {"renderer": drawn or "2d", "screen": shown.name,
+                    "renderer_requested": args.renderer if use_3d else "2d",
+                    "render_error": self.renderer.error if self.renderer is not None else None}
+            frame = getattr(shown, "last_stage_frame", None)
+            if frame is not None:
+                info.update(view=frame.view, tracking=frame.state, live_rig=frame.live)
+            return info
+
+    use_3d = args.preview == "3d" or (args.preview == "auto" and (screenshot is None or screen in ("play", "projector")))
+    if use_3d and args.renderer == "pyrender" and importlib.util.find_spec("pyrender") is None:
+        raise StoryBeamError("--renderer pyrender: pyrender is not installed (use --renderer kivy-gl)")
     factory = None
     if use_3d:  # the Play preview and the projector stage, on one render thread
-        from app.scene.stage import app_renderer_factory  # deferred: pyrender/OpenGL only for the 3-D preview
-        factory = app_renderer_factory(db.parent)
+        from app.scene.app_renderer import app_renderer_factory  # deferred: the render thread's modules load on its first job
+        factory = app_renderer_factory(db.parent, camera=camera, renderer=args.renderer)
     app = _LaunchedApp(db, lang=args.lang, story_id=args.story, demo=demo, start_screen=screen,
                        renderer_factory=factory)
     app.run()

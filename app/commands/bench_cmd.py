@@ -106,16 +106,45 @@ def _add_ar(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--filter", choices=("kalman", "one-euro"), default="kalman",
                    help="pose filter whose jitter is reported (default kalman)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--renderers", default="kivy-gl,pyrender",
+                   help="camera frame -> projector frame timing at 640x480 on one core, per renderer "
+                        "(comma-separated from kivy-gl, kivy-gl-1x = without supersampling, pyrender; "
+                        "'none' skips it; default kivy-gl,pyrender)")
+    p.add_argument("--frame-only", action="store_true",
+                   help="only the frame timing (and its 640x480 accuracy), not the calibrated accuracy bench")
+
+
+def kivy_gl_renderer(**options):
+    """The app's Kivy GL renderer (:mod:`app.ui.gl`, its default settings) on a hidden window,
+    for the frame timing of ``storybeam bench ar`` (a factory: called in the process that
+    measures it)."""
+    from app.ui.env import prepare_kivy_env  # deferred: Kivy reads its environment at import
+
+    prepare_kivy_env(headless=True, width=640, height=480)
+    from kivy.core.window import Window  # noqa: F401  deferred: opens the GL context the renderer draws in
+
+    from app.ui.gl import KivyGLRenderer  # deferred: after prepare_kivy_env()
+
+    return KivyGLRenderer(**options)
+
+
+def kivy_gl_renderer_1x():
+    """:func:`kivy_gl_renderer` with one sample per pixel (no supersampling)."""
+    return kivy_gl_renderer(supersample=1)
 
 
 def _run_ar(args: argparse.Namespace) -> int:
     from tqdm import tqdm  # deferred: only the benchmarks draw bars
 
     from app.bench.ar import (  # deferred: loads OpenCV and pyrender
+        FRAME_RENDERERS,
         BenchConfig,
         default_conditions,
+        format_frame_table,
         format_table,
+        merge_frame_results,
         run_bench,
+        run_frame_bench,
         write_examples,
     )
     from ar.boards import DEFAULT_BOARD_SPEC, Board  # deferred: loads OpenCV
@@ -133,17 +162,32 @@ def _run_ar(args: argparse.Namespace) -> int:
     Board(spec)  # validate early, before the long run
     cfg = BenchConfig(frames=args.frames, board_spec=spec, estimated_calibration=not args.true_calibration,
                       seed=args.seed, conditions=conditions, pose_filter=args.filter)
+    renderers = [] if args.renderers.strip() == "none" else [r.strip() for r in args.renderers.split(",") if r.strip()]
+    factories = {"kivy-gl": kivy_gl_renderer, "kivy-gl-1x": kivy_gl_renderer_1x, **FRAME_RENDERERS}
+    unknown = [r for r in renderers if r not in factories]
+    if unknown:
+        raise StoryBeamError(f"unknown renderer(s) {', '.join(unknown)}; known: {', '.join(factories)}")
     examples: dict | None = {} if args.examples else None
-    with tqdm(total=args.frames * len(conditions), unit="frame", desc="bench ar") as bar:
-        result = run_bench(cfg, progress=bar.update, examples=examples)
-    print(format_table(result))
+    if args.frame_only:
+        result = {"conditions": {c.name: {"description": c.description} for c in conditions}, "calibration": {}}
+    else:
+        with tqdm(total=args.frames * len(conditions), unit="frame", desc="bench ar") as bar:
+            result = run_bench(cfg, progress=bar.update, examples=examples)
+        print(format_table(result))
+    if renderers:
+        print(f"camera frame -> projector frame, 640x480, one core: {', '.join(renderers)} "
+              f"({args.frames} frames x {len(conditions)} conditions each, one process per renderer)", flush=True)
+        merge_frame_results(result, run_frame_bench(conditions, args.frames, args.seed,
+                                                    {r: factories[r] for r in renderers}, spec))
+        print(format_frame_table(result))
     cal = result["calibration"]
-    if "camera_fx_error_pct" in cal:
+    if not args.frame_only and "camera_fx_error_pct" in cal:
         print(f"calibration: camera rms {cal['camera_rms_px']:.3f} px, fx error {cal['camera_fx_error_pct']:+.3f} %; "
               f"projector rms {cal['projector_rms_px']:.3f} px, fx error {cal['projector_fx_error_pct']:+.3f} %; "
               f"extrinsics {cal['extrinsics_rot_err_deg']:.3f} deg, {cal['extrinsics_trans_err_mm']:.2f} mm")
-    print(f"landing error (clean, median): {result['landing_error_mm_median']:.2f} mm; "
-          f"detect+pose {result['detect_pose_ms_median']:.1f} ms; render {result['render_ms_median']:.1f} ms (medians)")
+    if not args.frame_only:
+        print(f"landing error (clean, median): {result['landing_error_mm_median']:.2f} mm; "
+              f"detect+pose {result['detect_pose_ms_median']:.1f} ms; render {result['render_ms_median']:.1f} ms (medians)")
     if args.json_out:
         write_json_report(args.json_out, result, indent=2)
     if examples:

@@ -12,9 +12,11 @@ Light modules (numpy and the story only; imported here, safe on Android and at s
 * :mod:`app.scene.video_export` -- the teacher's MP4 export (3-D in a child process, or
   the top-down 2-D fallback).
 
-3-D modules (import :mod:`ar.render`, hence pyrender and trimesh, at load; *not* imported
-here -- import them by module path where 3-D is wanted, as ``ar.render`` is kept out of
-``ar``):
+3-D modules (retargeting, OpenCV and :mod:`ar.scene` at load -- no pyrender: the preview
+and the stage describe frames as :class:`ar.scene.SceneDescription` s, which Kivy GL draws
+in the app and pyrender, imported on first use, draws for the export and tests; the demo
+pipeline imports :mod:`ar.render`. *Not* imported here -- import them by module path
+where 3-D is wanted):
 
 * :mod:`app.scene.animator` -- ``SceneAnimator``: a story character's clip retargeted and
   laid on its path (shared by the preview, the stage and the export);

@@ -4,12 +4,12 @@ along its sketched path.
 Shared by the Play preview (:mod:`app.scene.preview`), the projector stage
 (:mod:`app.scene.stage`) and the MP4 export, so all three show the same animation. Per
 character: the chosen clip (or the first clip of its motion class) from the motion
-library, :func:`retrieval.animation.retarget` onto the ``ar.render`` design (robot / cat
+library, :func:`retrieval.animation.retarget` onto the ``ar.scene`` design (robot / cat
 / kid), then :func:`retrieval.animation.follow_path` along the path mapped into the scene
 by a :class:`app.scene.placement.TablePlacement`: walk and run loop along the path;
 jump, dance and kick, and the hop / spin marks, are one-shots along a walk.
 
-Imports :mod:`ar.render` (the character designs are trimesh), so it needs the 3-D stack.
+Needs :mod:`ar.scene` only (the character designs are numpy): it runs on the tablet.
 """
 from __future__ import annotations
 
@@ -21,13 +21,13 @@ import numpy as np
 from app.paths import MOTIONS_DIR
 from app.scene.placement import PREVIEW_PLACEMENT, TablePlacement, table_to_scene
 from app.story import Character
-from ar.render import Character as CharacterDesign
-from ar.render import build_character
+from ar.scene import Character as CharacterDesign
+from ar.scene import build_character
 from retrieval.animation import OneShot, TablePath, find_loop, follow_path, retarget
 from retrieval.errors import StoryBeamError
 from retrieval.motion import Motion, load_motion
 
-#: story character kinds -> ar.render character designs
+#: story character kinds -> ar.scene character designs
 CHARACTER_DESIGNS = {"robot": "robot", "animal": "cat", "child": "kid"}
 #: motion classes that travel by themselves (looped along the path); the others are
 #: played once part-way along a walk

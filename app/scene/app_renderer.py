@@ -19,6 +19,12 @@ from app.story import Scene
 
 log = logging.getLogger(__name__)
 
+#: the profile setting (:meth:`app.story.storage.ProfileStore.get_setting`) that holds the
+#: teacher's choice of the rig's camera source: a device number, a video file or a folder
+CAMERA_SETTING = "rig_camera"
+#: the camera source when neither ``--camera`` nor the setting names one
+DEFAULT_CAMERA = "0"
+
 
 @dataclass(frozen=True)
 class StageJob:
@@ -28,27 +34,54 @@ class StageJob:
     view: str = "projector"
 
 
+def check_camera_choice(text: str) -> str:
+    """A rig camera choice as it is saved and used: a device number as is; a video file or
+    a folder of images only if it opens (else :class:`ar.camera_sources.CameraSourceError`,
+    naming the source and the problem)."""
+    from ar.camera_sources import CameraSourceError, open_camera_source  # deferred: OpenCV, only to check a recording
+
+    choice = (text or "").strip()
+    if not choice:
+        raise CameraSourceError("''", "empty camera source (expected a number, a video file or a folder)")
+    if not choice.isdigit():
+        open_camera_source(choice, paced=False).close()
+    return choice
+
+
+#: who draws the 3-D frames: Kivy GL on the UI thread, or pyrender on the render thread
+RENDERERS = ("kivy-gl", "pyrender")
+
+
 class AppRenderer:
     """Serves both jobs on the render thread; each 3-D renderer (and its GL context) is
     created lazily there, on its first job."""
 
-    def __init__(self, profile_dir: Path | None = None, rig=None):
-        """``rig``: use this rig instead of looking for one (tests)."""
+    def __init__(self, profile_dir: Path | None = None, rig=None, camera: int | str | None = 0,
+                 draw: str | None = "pyrender"):
+        """``rig``: use this rig instead of looking for one (tests); ``camera``: the rig's
+        camera source (a device number, a video file, a folder of images); ``draw``:
+        ``"pyrender"`` draws here and answers images, None answers what to draw -- an
+        :class:`ar.scene.SceneDescription` for the Play preview, a
+        :class:`app.scene.stage.StageFrame` carrying one for the stage -- and the app
+        draws it with Kivy GL on its UI thread (:mod:`app.ui.gl`; no pyrender needed)."""
         self.profile_dir = profile_dir
         self.rig = rig
+        self.camera = camera
+        self.draw = draw
         self._preview = None
         self._stage = None
 
     def __call__(self, job: Scene | StageJob, t: float):
-        # The 3-D modules need pyrender (absent on Android, where the app never makes this
-        # renderer) and take ~1.5 s to import (measured): loaded here, on the render
-        # thread's first job, so the app's first frame never waits for them.
-        from app.scene.preview import ScenePreviewRenderer  # optional: pyrender (deferred to the render thread)
-        from app.scene.stage import StageError, StageRenderer, SyntheticRig  # optional: pyrender (as above)
+        # The 3-D modules (retargeting, OpenCV; pyrender only when draw="pyrender", on the
+        # first frame) take a while to import: loaded here, on the render thread's first
+        # job, so the app's first frame never waits for them.
+        from app.scene.preview import ScenePreviewRenderer  # deferred: to the render thread (retargeting, OpenCV)
+        from app.scene.stage import StageError, StageRenderer, SyntheticRig  # deferred: as above
 
         if isinstance(job, StageJob):
             if self._stage is None:
-                self._stage = StageRenderer(rig=self.rig, profile_dir=self.profile_dir)
+                self._stage = StageRenderer(rig=self.rig, profile_dir=self.profile_dir, camera=self.camera,
+                                            draw=self.draw)
             try:
                 return self._stage.render(job.scene, t, job.view)
             except StageError as exc:
@@ -57,20 +90,31 @@ class AppRenderer:
                 # the rig's camera went away mid-show: keep the show going on the synthetic rig
                 log.warning("live rig failed, projector stage switches to the synthetic rig: %s", exc)
                 self._stage.close()
-                self._stage = StageRenderer(rig=SyntheticRig(self._stage.board))
+                self._stage = StageRenderer(rig=SyntheticRig(self._stage.board), draw=self.draw)
                 return self._stage.render(job.scene, t, job.view)
         if self._preview is None:
             self._preview = ScenePreviewRenderer()
+        if self.draw is None:
+            return self._preview.describe(job, t)
         return self._preview.render(job, t)
 
 
-def app_renderer_factory(profile_dir: Path | None = None) -> Callable[[], AppRenderer]:
+def app_renderer_factory(profile_dir: Path | None = None, camera: int | str | None = 0,
+                         renderer: str = "kivy-gl") -> Callable[[], AppRenderer]:
     """The app's renderer factory (runs on the render thread); marked as able to draw
-    the projector stage, which :meth:`app.ui.app.StoryBeamApp.stage_available` checks."""
+    the projector stage, which :meth:`app.ui.app.StoryBeamApp.stage_available` checks.
+    ``camera``: the rig's camera source (``storybeam app --camera``, the teacher's setting);
+    ``renderer``: ``"kivy-gl"`` (the UI thread draws the descriptions: every device) or
+    ``"pyrender"`` (the render thread draws images; desktop with pyrender only), kept on
+    the factory as ``make.renderer`` for the app to read."""
+    if renderer not in RENDERERS:
+        raise ValueError(f"renderer {renderer!r}: choose one of {', '.join(RENDERERS)}")
+
     def make() -> AppRenderer:
-        return AppRenderer(profile_dir)
+        return AppRenderer(profile_dir, camera=camera, draw=None if renderer == "kivy-gl" else "pyrender")
     make.supports_stage = True
+    make.renderer = renderer
     return make
 
 
-__all__ = ["StageJob", "AppRenderer", "app_renderer_factory"]
+__all__ = ["StageJob", "AppRenderer", "app_renderer_factory", "RENDERERS", "CAMERA_SETTING", "DEFAULT_CAMERA", "check_camera_choice"]

@@ -36,7 +36,9 @@ from app.progress import progress_bar
 from ar import (DEFAULT_BOARD_SPEC, Board, PoseTracker, SyntheticCamera, TrajectoryConfig, default_camera,
                 default_projector, estimate_board_pose, handheld_trajectory)
 from ar.closed_loop import LandingCheck
-from ar.render import CharacterRig, OverheadView, ProjectorRenderer, build_character, scaled_model
+from ar.render import ProjectorRenderer, PyrenderSceneRenderer
+from ar.scene import (Lighting, SceneDescription, View, add_character, add_mesh, build_character, overhead_view,
+                      projector_from_scene, ribbon, scaled_model, table_mesh)
 from retrieval.animation import (TablePath, find_loop, follow_path, foot_skate_cm_per_m, path_error_cm,
                                  retarget)
 from retrieval.errors import StoryBeamError
@@ -164,13 +166,16 @@ def run_demo(cfg: DemoConfig) -> dict:
     T_pc = cam.proj_from_cam  # the rig's calibration (true values; see docs/animation.md)
     K, dist = cam.camera.K, cam.camera.dist
 
-    projector = ProjectorRenderer(cfg.width, cfg.height, out_proj.K)
-    rig = CharacterRig(projector, character)
-    rig.bind(motion)
+    # one scene description per view and frame, drawn by pyrender (as the app draws the
+    # same descriptions with Kivy GL): the character's part poses, the projector's view
+    part_poses = character.all_part_poses(motion)
+    projector = PyrenderSceneRenderer()
     need_overhead = cfg.view in ("overhead", "all") or "overhead" in cfg.stills
-    overhead = OverheadView(character, path.points, cfg.width, cfg.height) if need_overhead else None
-    if overhead is not None:
-        overhead.rig.bind(motion)
+    overhead = PyrenderSceneRenderer() if need_overhead else None
+    overhead_statics = [(table_mesh(1.2, 1.0), (150, 150, 160))]  # the authoring preview's grey table ...
+    if path.points is not None and len(path.points) > 1:
+        overhead_statics.append((ribbon(path.points), (255, 230, 0)))  # ... and the drawn path
+    overhead_cam = overhead_view(cfg.width, cfg.height)
     landing_renderer = ProjectorRenderer(proj_model.width, proj_model.height, proj_model.K)
     landing = LandingCheck(landing_renderer, board)
     tracker = PoseTracker()
@@ -201,10 +206,11 @@ def run_demo(cfg: DemoConfig) -> dict:
             states[track.state] += 1
             light = np.zeros((cfg.height, cfg.width, 3), np.uint8)
             if track.T_cam_from_board is not None:
-                projector.set_board_pose(track.T_cam_from_board, T_pc, board)
-                rig.show_frame(i)
+                desc = SceneDescription(View(cfg.width, cfg.height, out_proj.K,
+                                             projector_from_scene(track.T_cam_from_board, T_pc, board)))
+                add_character(desc, character, part_poses[i])
                 t0 = time.perf_counter()
-                light = projector.render()
+                light = projector.render(desc)
                 render_ms.append((time.perf_counter() - t0) * 1000)
                 if i % max(1, cfg.landing_every) == 0:
                     res = landing.measure(track.T_cam_from_board, T_pc, proj_model.K, proj_model.dist, T_pc @ T_true)
@@ -212,7 +218,11 @@ def run_demo(cfg: DemoConfig) -> dict:
             views = {"camera": fit(cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2RGB)), "projector": light}
             if overhead is not None:
                 t2 = time.perf_counter()
-                views["overhead"] = overhead.render(i)
+                above = SceneDescription(overhead_cam, lighting=Lighting(0.45, 3.5))
+                for mesh, colour in overhead_statics:
+                    add_mesh(above, mesh, colour)
+                add_character(above, character, part_poses[i])
+                views["overhead"] = overhead.render(above)
                 parts_ms["overhead"].append((time.perf_counter() - t2) * 1000)
             prev_light = light if same_size else cv2.resize(light, (640, 480), interpolation=cv2.INTER_LINEAR)
             frame_ms.append((time.perf_counter() - t_frame) * 1000)

@@ -1,15 +1,16 @@
 """3-D preview of a whole scene for Play: every character retargeted, laid on its sketched
-path and rendered from above the table with pyrender.
+path and seen from above the table.
 
-Made to run inside :class:`app.scene.render_thread.RenderThread` (pyrender's GL context must
-live on that one thread). Preparing a scene (load the clip, retarget, follow the path;
+:meth:`ScenePreviewRenderer.describe` makes the frame as an :class:`ar.scene.SceneDescription`
+(numpy only: it runs on the tablet); :meth:`ScenePreviewRenderer.render` also draws it
+with pyrender (:class:`ar.render.PyrenderSceneRenderer`, imported on first use) for the
+MP4 export and headless tests. The app draws the description itself with Kivy GL
+(:mod:`app.ui.gl`). Preparing a scene (load the clip, retarget, follow the path;
 :class:`app.scene.animator.SceneAnimator`) costs about a second per character, so
 prepared scenes are cached by content; changing a path prepares the scene again. A
 character whose motion cannot be laid on its path is reported in ``problems`` and left
 out; the tablet keeps its 2-D preview meanwhile. The table is laid in the scene by
 :data:`app.scene.placement.PREVIEW_PLACEMENT` (full size, seen from the child's side).
-
-Imports :mod:`ar.render` (pyrender): import this module only where 3-D is wanted.
 """
 from __future__ import annotations
 
@@ -26,22 +27,26 @@ from app.scene.animator import SceneAnimator
 from app.scene.placement import PREVIEW_PLACEMENT, table_to_scene
 from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Scene
 from ar import look_at
-from ar.render import CharacterRig, ProjectorRenderer, add_path, add_table
+from ar.scene import Lighting, SceneDescription, View, add_character, add_mesh, ribbon, table_mesh
 from retrieval.errors import StoryBeamError
 
 log = logging.getLogger(__name__)
 
+#: the preview's light: brighter than the projector's (a lit table, not light on a table)
+PREVIEW_LIGHTING = Lighting(ambient=0.45, key_intensity=3.5)
+
 
 @dataclass
 class _Prepared:
-    renderer: ProjectorRenderer
-    rigs: list = field(default_factory=list)
+    view: View
+    statics: list = field(default_factory=list)  # (mesh, colour): table and paths
+    cast: list = field(default_factory=list)  # (design, (F, P, 4, 4) part poses)
     problems: list[str] = field(default_factory=list)
 
 
 class ScenePreviewRenderer:
-    """``render(scene, t) -> (H, W, 3) uint8``: the scene at time ``t`` seen from above the
-    child's side of the table."""
+    """``describe(scene, t) -> SceneDescription`` and ``render(scene, t) -> (H, W, 3) uint8``:
+    the scene at time ``t`` seen from above the child's side of the table."""
 
     def __init__(self, width: int = 640, height: int = 426, fps: float = 30.0,
                  motions_dir: str | Path = MOTIONS_DIR):
@@ -55,56 +60,66 @@ class ScenePreviewRenderer:
             self.first_of_class.setdefault(r["label"], r["trial"])
         self._key: str | None = None
         self._prepared: _Prepared | None = None
+        self._pyrender = None
         self.animator = SceneAnimator(self.clip_files, self.first_of_class, fps=fps, placement=PREVIEW_PLACEMENT)
 
     def __call__(self, scene: Scene, t: float) -> np.ndarray:
         return self.render(scene, t)
 
-    def render(self, scene: Scene, t: float) -> np.ndarray:
+    def describe(self, scene: Scene, t: float) -> SceneDescription:
         key = json.dumps(scene.to_dict(), sort_keys=True)
         if key != self._key:
-            self.close()
             self._prepared = self._prepare(scene)
             self._key = key
+        prepared = self._prepared
+        desc = SceneDescription(prepared.view, lighting=PREVIEW_LIGHTING)
+        for mesh, colour in prepared.statics:
+            add_mesh(desc, mesh, colour)
         frame = int(round(max(t, 0.0) * self.fps))
-        for rig in self._prepared.rigs:
-            rig.show_frame(frame)
-        return np.ascontiguousarray(self._prepared.renderer.render()[..., :3])
+        for design, poses in prepared.cast:
+            add_character(desc, design, poses[int(np.clip(frame, 0, len(poses) - 1))])
+        return desc
+
+    def render(self, scene: Scene, t: float) -> np.ndarray:
+        """The frame drawn by pyrender (the reference renderer; imported on first use)."""
+        desc = self.describe(scene, t)
+        if self._pyrender is None:
+            from ar.render import PyrenderSceneRenderer  # optional: pyrender (absent on Android: use describe())
+            self._pyrender = PyrenderSceneRenderer()
+        return self._pyrender.render(desc)
 
     @property
     def problems(self) -> list[str]:
         return list(self._prepared.problems) if self._prepared else []
 
     def close(self) -> None:
-        if self._prepared is not None:
-            self._prepared.renderer.close()
-            self._prepared = None
-            self._key = None
+        if self._pyrender is not None:
+            self._pyrender.close()
+            self._pyrender = None
+        self._prepared = None
+        self._key = None
 
     # -- preparation --------------------------------------------------------------------
     def _prepare(self, scene: Scene) -> _Prepared:
         w, h = self.width, self.height
         f = 0.95 * w
         K = np.array([[f, 0, w / 2 - 0.5], [0, f, h / 2 - 0.5], [0, 0, 1.0]])
-        renderer = ProjectorRenderer(w, h, K, ambient=0.45, light_intensity=3.5)
-        add_table(renderer, TABLE_WIDTH_M, TABLE_DEPTH_M, table_colour(scene.background))
         # above the child's edge of the table (scene -Z), looking across it
-        renderer.set_view(look_at(np.array([0.0, 0.95, -0.75]), np.array([0.0, 0.0, 0.02]), np.array([0.0, 1.0, 0.0])))
-        prepared = _Prepared(renderer)
-        for i, character in enumerate(scene.characters):
+        T = look_at(np.array([0.0, 0.95, -0.75]), np.array([0.0, 0.0, 0.02]), np.array([0.0, 1.0, 0.0]))
+        prepared = _Prepared(View(w, h, K, T))
+        prepared.statics.append((table_mesh(TABLE_WIDTH_M, TABLE_DEPTH_M), table_colour(scene.background)))
+        for character in scene.characters:
             if len(character.path) < 2:
                 continue
-            add_path(renderer, f"path{i}", table_to_scene(np.array(character.path), PREVIEW_PLACEMENT),
-                     (255, 255, 255), width=0.01)
+            path = table_to_scene(np.array(character.path), PREVIEW_PLACEMENT)
+            prepared.statics.append((ribbon(path, width=0.01), (255, 255, 255)))
             try:
                 design, motion = self.animator.animate(character)
             except (StoryBeamError, ValueError, OSError) as exc:
                 prepared.problems.append(f"{character.kind} {character.id}: {exc}")
                 log.warning("3-D preview leaves out %s: %s", character.id, exc)
                 continue
-            rig = CharacterRig(renderer, design, prefix=f"char{i}")
-            rig.bind(motion)
-            prepared.rigs.append(rig)
+            prepared.cast.append((design, design.all_part_poses(motion)))
         return prepared
 
 
@@ -115,4 +130,4 @@ def table_colour(background: str) -> tuple[int, int, int]:
             "sand": (245, 214, 140)}.get(background, (150, 150, 160))
 
 
-__all__ = ["ScenePreviewRenderer", "table_colour"]
+__all__ = ["ScenePreviewRenderer", "table_colour", "PREVIEW_LIGHTING"]

@@ -1,9 +1,12 @@
 """Play: preview the scene or the whole story with a scrubber, and the projector output.
 
 The preview is the top-down animation of each character along its path. When a 3-D
-renderer is available, frames come from :class:`app.scene.render_thread.RenderThread` (pyrender
-must render on its own long-lived thread; two GL contexts on the Kivy thread crash) and
-are shown as a texture in the same view.
+renderer is available, frames come from :class:`app.scene.render_thread.RenderThread`: with
+Kivy GL (the default, every device) the thread answers scene descriptions
+(:class:`ar.scene.SceneDescription`: retargeting, path following, tracking run there) and
+this module draws them on the UI thread with :class:`app.ui.gl.KivyGLRenderer`, whose
+offscreen texture is shown; with pyrender (desktop) the thread answers images (pyrender
+must render on its own long-lived thread; two GL contexts on the Kivy thread crash).
 
 The projector screen shows :mod:`app.scene.stage`: the scene's 3-D characters rendered from the
 projector's viewpoint through the tracked rig (a live camera with the profile's
@@ -13,6 +16,7 @@ Without a 3-D renderer it falls back to the 2-D characters on black and says so.
 """
 from __future__ import annotations
 
+import numpy as np
 from kivy.app import App
 from kivy.clock import Clock
 from kivy.graphics.texture import Texture
@@ -26,6 +30,8 @@ from kivy.uix.slider import Slider
 from kivy.uix.widget import Widget
 
 from app.story import Story
+from app.ui.gl import KivyGLRenderer
+from app.ui.narration import NarrationPlayback
 from app.ui.table_view import TableView
 from app.ui.widgets import BUTTON_DP, IconButton, filled
 
@@ -64,6 +70,9 @@ class _Player:
         self.scene_only: str | None = None
         self._event = None
         self.on_time = None
+        self.narration = NarrationPlayback()  # the scene's voice, in step with the time line
+        self.gl: KivyGLRenderer | None = None  # draws scene descriptions (made on the first)
+        self.drawn_by: str | None = None  # "kivy-gl" / "pyrender": who drew the last 3-D frame
 
     @property
     def story(self) -> Story:
@@ -89,23 +98,39 @@ class _Player:
             App.get_running_app().request_frame(story.scenes[index], local, self._show_frame)
         if self.on_scene_time:
             self.on_scene_time(story.scenes[index], local)
+        self.narration.update(story.scenes[index], local, self.playing)
         if self.on_time:
             self.on_time(self.t)
 
-    def _show_frame(self, rgb) -> None:
-        """Show a rendered frame (HxWx3 uint8) from the render thread as a texture."""
-        self.table.frame_texture = rgb_texture(rgb)
+    def _show_frame(self, frame) -> None:
+        """Show the render thread's answer: an (H, W, 3) uint8 image (pyrender) or an
+        :class:`ar.scene.SceneDescription`, drawn here with Kivy GL (:mod:`app.ui.gl`)."""
+        if isinstance(frame, np.ndarray):
+            texture, self.drawn_by = rgb_texture(frame), "pyrender"
+        else:
+            if self.gl is None:
+                self.gl = KivyGLRenderer()
+            texture, self.drawn_by = self.gl.draw(frame), "kivy-gl"
+        if texture is self.table.frame_texture:
+            self.table.redraw()  # the same texture, new pixels
+        else:
+            self.table.frame_texture = texture
 
 
     def play(self) -> None:
         if self.t >= self.duration:
             self.t = 0.0
         self.playing = True
+        story = self.story
+        if story.scenes:
+            index, local = locate(story, self.t, self.scene_only)
+            self.narration.update(story.scenes[index], local, True)
         if self._event is None:
             self._event = Clock.schedule_interval(self._tick, 1.0 / FPS)
 
     def pause(self) -> None:
         self.playing = False
+        self.narration.stop()
         if self._event is not None:
             self._event.cancel()
             self._event = None
@@ -193,9 +218,65 @@ class ProjectorScreen(_PlayerScreen):
     """Full-screen projector output: the scene's 3-D characters from the projector's
     viewpoint through the tracked rig (black = no light), the tracking state small in a
     corner. *Preview* shows the camera view instead (the light on the table). Without a
-    3-D renderer: the 2-D characters on black (*Preview*: the place picture under them)."""
+    3-D renderer: the 2-D characters on black (*Preview*: the place picture under them).
 
+    *Full screen* is the projector mode for a one-display tablet whose screen is mirrored
+    to the projector (HDMI, a pico projector): the window goes full screen and everything
+    but the light is hidden (buttons would be projected onto the table); a finger held
+    down anywhere for :attr:`LONG_PRESS_S` seconds leaves it. Taps do nothing there, so
+    a child touching the tablet does not stop the show."""
+
+    drawn_by: str | None = None  # "kivy-gl" / "pyrender": who drew the last light image
+    gl = None  # the Kivy GL renderer of the light (made on the first description)
     STATE_COLOURS = {"tracking": (0.3, 0.8, 0.3, 1), "holding": (0.95, 0.7, 0.2, 1), "lost": (0.9, 0.3, 0.3, 1)}
+    LONG_PRESS_S = 1.0
+    projector_mode = False
+    _long_press = None
+
+    def enter_projector_mode(self) -> None:
+        """Full screen, only the light: hide the controls and the state; a long press leaves."""
+        from kivy.core.window import Window  # deferred: the window exists once the app runs
+
+        self.projector_mode = True
+        for w in (self.controls, self.state_label):
+            w.opacity, w.disabled = 0, True
+        Window.fullscreen = "auto"
+
+    def leave_projector_mode(self) -> None:
+        from kivy.core.window import Window  # deferred: as in enter_projector_mode
+
+        if self._long_press is not None:
+            self._long_press.cancel()
+            self._long_press = None
+        self.projector_mode = False
+        self.controls.opacity, self.controls.disabled = 0.85, False
+        self.state_label.opacity, self.state_label.disabled = 0.8, False
+        Window.fullscreen = False
+
+    def on_touch_down(self, touch):
+        if not self.projector_mode:
+            return super().on_touch_down(touch)
+        self._cancel_long_press()
+        self._held_touch = touch.uid
+        self._long_press = Clock.schedule_once(lambda _dt: self.leave_projector_mode(), self.LONG_PRESS_S)
+        return True  # the show goes on: a tap does nothing in projector mode
+
+    def on_touch_up(self, touch):
+        if self.projector_mode or touch.uid == getattr(self, "_held_touch", None):
+            self._cancel_long_press()  # (the lift of the long press that left the mode is not a tap either)
+            self._held_touch = None
+            return True
+        return super().on_touch_up(touch)
+
+    def _cancel_long_press(self) -> None:
+        if self._long_press is not None:
+            self._long_press.cancel()
+            self._long_press = None
+
+    def on_leave(self, *args):
+        if self.projector_mode:
+            self.leave_projector_mode()
+        return super().on_leave(*args)
 
 
     def refresh(self) -> None:
@@ -223,12 +304,16 @@ class ProjectorScreen(_PlayerScreen):
         self.state_label.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
         root.add_widget(self.state_label)
         self.player = _Player(self, self.table, on_scene_time=self._request_stage if self.use_stage else None)
-        bar = BoxLayout(size_hint=(None, None), size=(dp(3 * 110), dp(BUTTON_DP)), pos_hint={"x": 0.01, "y": 0.01},
+        bar = BoxLayout(size_hint=(None, None), size=(dp(4 * 110), dp(BUTTON_DP)), pos_hint={"x": 0.01, "y": 0.01},
                         spacing=dp(6), opacity=0.85)
         bar.add_widget(IconButton("home", t("back"), on_press=lambda: app.go(app.projector_return)))
         bar.add_widget(IconButton("play", t("play"), on_press=self.restart))
         self.preview_button = IconButton("projector", t("preview"), on_press=self.toggle_preview)
         bar.add_widget(self.preview_button)
+        self.fullscreen_button = IconButton("projector", t("projector_mode"), on_press=self.enter_projector_mode)
+        bar.add_widget(self.fullscreen_button)
+        self.controls = bar
+        self.projector_mode = False
         root.add_widget(bar)
         self.add_widget(root)
         self.player.seek(0.0)
@@ -270,11 +355,39 @@ class ProjectorScreen(_PlayerScreen):
         app.request_stage_frame(scene, local_t, self.stage_view, self._show_stage)
         self.last_stage_frame = frame
         self.frames_shown += 1
-        self.stage_image.texture = rgb_texture(frame.rgb)
+        texture = self._stage_texture(frame)
+        if texture is self.stage_image.texture:
+            self.stage_image.canvas.ask_update()  # the same texture, new pixels
+        else:
+            self.stage_image.texture = texture
         self.stage_image.opacity = 1
         rig = app.t("rig_live") if frame.live else app.t("rig_preview")
         self.state_label.text = f"{rig} · {app.t('track_' + frame.state)}"
         self.state_label.color = self.STATE_COLOURS.get(frame.state, (0.6, 0.6, 0.6, 1))
+
+
+    def _stage_texture(self, frame):
+        """The texture to show for ``frame``. A frame that carries a description (the
+        Kivy GL path) has its light drawn here; when the stage wants the light back (the
+        synthetic rig films it next frame) it is read back and handed over, and
+        ``frame.projector`` (and ``frame.rgb`` for the projector view) filled in."""
+        if frame.projector is not None or frame.description is None:  # drawn already (or nothing to draw)
+            if frame.description is not None:
+                self.drawn_by = "pyrender"
+            return rgb_texture(frame.rgb)
+        if self.gl is None:
+            self.gl = KivyGLRenderer()
+        self.drawn_by = "kivy-gl"
+        if frame.light_sink is not None:
+            light = self.gl.render(frame.description)
+            frame.light_sink(light)
+            frame.projector = light
+            if frame.view == "projector":
+                frame.rgb = light
+            texture = self.gl.out.texture
+        else:
+            texture = self.gl.draw(frame.description)
+        return rgb_texture(frame.rgb) if frame.view == "camera" else texture
 
 
 __all__ = ["PlayScreen", "ProjectorScreen", "locate"]

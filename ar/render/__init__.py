@@ -2,8 +2,10 @@
 
 * :mod:`ar.render.projector_view` -- the Y-up *scene frame* on the board, the projector as
   an inverse camera (:class:`ProjectorRenderer`, headless EGL), test content;
-* :mod:`ar.render.characters` -- the robot, cat and kid built from rounded primitives on
-  the canonical body (trimesh);
+* :mod:`ar.render.characters` -- the characters of :mod:`ar.scene.characters` (numpy) as
+  pyrender meshes, trimesh and files;
+* :mod:`ar.render.scene_render` -- ``PyrenderSceneRenderer``: draws an
+  :class:`ar.scene.SceneDescription` (the reference the Kivy GL renderer is held to);
 * :mod:`ar.render.character_render` -- a character posed per frame in a renderer
   (:class:`CharacterRig`), the table and the drawn path, the authoring overhead view.
 
@@ -25,7 +27,6 @@ from ar.render.character_render import (  # noqa: E402  (after PYOPENGL_PLATFORM
     OverheadView,
     add_path,
     add_table,
-    material,
     path_ribbon,
     scaled_model,
 )
@@ -38,8 +39,11 @@ from ar.render.characters import (  # noqa: E402
     Palette,
     Part,
     build_character,
+    material,
+    part_mesh,
     rest_motion,
     save_character,
+    to_trimesh,
 )
 from ar.render.projector_view import (  # noqa: E402
     CV_TO_GL,
@@ -54,6 +58,7 @@ from ar.render.projector_view import (  # noqa: E402
     pyrender_to_opencv_pose,
     scene_to_board_points,
 )
+from ar.render.scene_render import PyrenderSceneRenderer  # noqa: E402
 
 __all__ = [
     # projector_view
@@ -61,7 +66,9 @@ __all__ = [
     "pyrender_to_opencv_pose", "projector_from_scene", "ProjectorRenderer", "axes_mesh", "add_test_scene", "add_dots",
     # characters
     "DEFAULT_HEIGHT_M", "CHARACTER_NAMES", "CharacterError", "Part", "Character", "Palette", "Design",
-    "build_character", "rest_motion", "save_character",
+    "build_character", "rest_motion", "save_character", "material", "part_mesh", "to_trimesh",
     # character_render
-    "scaled_model", "material", "CharacterRig", "path_ribbon", "add_table", "add_path", "OverheadView",
+    "scaled_model", "CharacterRig", "path_ribbon", "add_table", "add_path", "OverheadView",
+    # scene_render
+    "PyrenderSceneRenderer",
 ]

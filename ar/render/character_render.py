@@ -19,30 +19,12 @@ maps board-frame points into it).
 from __future__ import annotations
 
 import numpy as np
-import pyrender
-import trimesh
 
-from ar import PinholeModel, look_at
-from ar.render.characters import Character
+from ar import look_at
+from ar.render.characters import part_mesh
 from ar.render.projector_view import ProjectorRenderer
+from ar.scene import Character, MeshData, ribbon, scaled_model, table_mesh  # noqa: F401 (scaled_model re-exported)
 from retrieval.motion import Motion
-
-
-def scaled_model(model: PinholeModel, width: int, height: int) -> PinholeModel:
-    """The same lens at another resolution (intrinsics scaled; distortion unchanged)."""
-    sx, sy = width / model.width, height / model.height
-    K = model.K.copy()
-    K[0, 0] *= sx
-    K[0, 2] = (K[0, 2] + 0.5) * sx - 0.5
-    K[1, 1] *= sy
-    K[1, 2] = (K[1, 2] + 0.5) * sy - 0.5
-    return PinholeModel(K, model.dist.copy(), int(width), int(height))
-
-
-def material(colour) -> pyrender.MetallicRoughnessMaterial:
-    """A matte, non-metallic material of ``colour`` (RGB 0..255)."""
-    rgb = np.asarray(colour, np.float64) / 255.0
-    return pyrender.MetallicRoughnessMaterial(baseColorFactor=[*rgb, 1.0], metallicFactor=0.0, roughnessFactor=0.7)
 
 
 class CharacterRig:
@@ -56,7 +38,7 @@ class CharacterRig:
         self.character = character
         self.names = []
         for k, part in enumerate(character.parts):
-            mesh = pyrender.Mesh.from_trimesh(part.mesh, material=material(part.colour), smooth=True)
+            mesh = part_mesh(part.mesh, part.colour)
             name = f"{prefix}/{k}:{part.name}"
             renderer.add(name, mesh)
             self.names.append(name)
@@ -76,37 +58,20 @@ class CharacterRig:
             self.renderer.set_pose(name, pose)
 
 
-def path_ribbon(points_xz: np.ndarray, width: float = 0.006, lift: float = 0.0005) -> trimesh.Trimesh:
-    """A flat ribbon on the table along a path (the child's drawn line), for previews."""
-    p = np.asarray(points_xz, np.float64)
-    d = np.gradient(p, axis=0)
-    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
-    n = np.stack([-d[:, 1], d[:, 0]], axis=1) * width / 2
-    left, right = p + n, p - n
-    verts = np.zeros((2 * len(p), 3))
-    verts[0::2, [0, 2]] = left
-    verts[1::2, [0, 2]] = right
-    verts[:, 1] = lift
-    faces = []
-    for i in range(len(p) - 1):
-        a, b, c, e = 2 * i, 2 * i + 1, 2 * i + 2, 2 * i + 3
-        faces += [[a, c, b], [b, c, e]]
-    mesh = trimesh.Trimesh(verts, np.array(faces), process=False)
-    mesh.fix_normals()
-    return mesh
+def path_ribbon(points_xz: np.ndarray, width: float = 0.006, lift: float = 0.0005) -> MeshData:
+    """A flat ribbon on the table along a path (the child's drawn line): :func:`ar.scene.ribbon`."""
+    return ribbon(points_xz, width, lift)
 
 
 def add_table(renderer: ProjectorRenderer, width_m: float, depth_m: float, colour, name: str = "table") -> None:
     """A table top ``width_m`` along scene X by ``depth_m`` along Z, 1 cm thick, its top
     surface at y = 0 (just under anything standing on it), centred on the scene origin."""
-    table = trimesh.creation.box(extents=(width_m, 0.01, depth_m))
-    table.apply_translation([0, -0.0051, 0])
-    renderer.add(name, pyrender.Mesh.from_trimesh(table, material=material(colour)))
+    renderer.add(name, part_mesh(table_mesh(width_m, depth_m), colour))
 
 
 def add_path(renderer: ProjectorRenderer, name: str, points_xz: np.ndarray, colour, width: float = 0.006) -> None:
     """The child's drawn path as a flat ribbon of ``colour`` on the table (:func:`path_ribbon`)."""
-    renderer.add(name, pyrender.Mesh.from_trimesh(path_ribbon(points_xz, width=width), material=material(colour)))
+    renderer.add(name, part_mesh(path_ribbon(points_xz, width=width), colour))
 
 
 class OverheadView:

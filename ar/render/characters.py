@@ -1,269 +1,57 @@
-"""Kid-friendly characters built from rounded primitives attached to the canonical body.
+"""Characters for pyrender and for files: the trimesh / pyrender form of
+:mod:`ar.scene.characters` (the numpy builder every renderer shares).
 
-A character is a canonical skeleton (:func:`retrieval.animation.retarget.canonical_skeleton`, with
-its own proportions: big head, short legs) plus rigid *parts*, each a closed trimesh
-(capsule, sphere, ellipsoid) fixed in one joint's frame. Rigid parts per bone need no
-skinning, render as a handful of static meshes whose poses change per frame, and stay
-readable when projected small and bright onto a table: no thin details, saturated
-colours, big eyes.
+* :func:`part_mesh` -- a part's :class:`ar.scene.MeshData` as a smooth-shaded, coloured
+  ``pyrender.Mesh`` (uploaded once, then only posed);
+* :func:`to_trimesh` -- the same mesh as a ``trimesh.Trimesh`` (exports, checks);
+* :func:`save_character` -- the rest-pose preview ``<name>.glb`` and its ``<name>.json``.
 
-Units: parts are built in metres in the joint's local frame (the skeleton's native unit
-is centimetres; :data:`CM` converts). The character faces +Z with Y up in its rest pose.
-:func:`save_character` writes a rest-pose preview (``storybeam characters`` writes all of
-them to ``assets/characters``).
+The builder's names are re-exported so existing imports keep working.
 """
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pyrender
 import trimesh
 
-from retrieval.errors import StoryBeamError
-from retrieval.motion import Motion, Skeleton, global_transforms
-from retrieval.animation import BodyProportions, canonical_skeleton, sole_level
-
-CM = 0.01
-#: Default standing height on the table, metres.
-DEFAULT_HEIGHT_M = 0.12
-
-Colour = tuple[int, int, int]
-
-
-class CharacterError(StoryBeamError):
-    """Unknown character or bad character parameters."""
-
-
-@dataclass
-class Part:
-    """One rigid piece: ``mesh`` (metres, in the frame of joint ``joint``) and its colour."""
-
-    name: str
-    joint: str
-    mesh: trimesh.Trimesh
-    colour: Colour
+from ar.scene import (
+    CHARACTER_NAMES,
+    DEFAULT_HEIGHT_M,
+    Character,
+    CharacterError,
+    Design,
+    MeshData,
+    Palette,
+    Part,
+    build_character,
+    rest_motion,
+)
 
 
-@dataclass
-class Character:
-    """A skeleton and the parts riding on it."""
-
-    name: str
-    skeleton: Skeleton
-    parts: list[Part] = field(default_factory=list)
-    height_m: float = DEFAULT_HEIGHT_M
-
-    def part_poses(self, motion: Motion, frame: int) -> list[np.ndarray]:
-        """World 4x4 pose (metres, the motion's Y-up world) of every part at ``frame``."""
-        return [p for p in self.all_part_poses(motion, frames=[frame])[0]]
-
-    def all_part_poses(self, motion: Motion, frames: list[int] | None = None) -> np.ndarray:
-        """(F, P, 4, 4) part poses for the given frames (all frames by default)."""
-        if motion.skeleton.names != self.skeleton.names:
-            raise CharacterError(
-                f"motion {motion.name!r} is not on {self.name}'s skeleton; retarget it first"
-            )
-        sub = motion if frames is None else _frames(motion, frames)
-        rot, pos = global_transforms(sub)
-        idx = [self.skeleton.index(p.joint) for p in self.parts]
-        out = np.zeros((sub.n_frames, len(self.parts), 4, 4))
-        out[..., :3, :3] = rot[:, idx]
-        out[..., :3, 3] = pos[:, idx] * self.skeleton.metres_per_unit
-        out[..., 3, 3] = 1.0
-        return out
-
-    def posed_mesh(self, motion: Motion | None = None, frame: int = 0) -> trimesh.Trimesh:
-        """All parts as one coloured mesh, posed at ``frame`` of ``motion`` (rest pose
-        standing on y = 0 when ``motion`` is None). For export, previews and tests; the
-        renderer poses the parts separately instead."""
-        motion = motion if motion is not None else rest_motion(self)
-        poses = self.all_part_poses(motion, [frame])[0]
-        meshes = []
-        for part, pose in zip(self.parts, poses):
-            m = part.mesh.copy()
-            m.apply_transform(pose)
-            m.visual.face_colors = np.array([*part.colour, 255], dtype=np.uint8)
-            meshes.append(m)
-        return trimesh.util.concatenate(meshes)
+def material(colour, roughness: float = 0.7) -> pyrender.MetallicRoughnessMaterial:
+    """A matte, non-metallic material of ``colour`` (RGB 0..255)."""
+    rgb = np.asarray(colour, np.float64) / 255.0
+    return pyrender.MetallicRoughnessMaterial(baseColorFactor=[*rgb, 1.0], metallicFactor=0.0,
+                                              roughnessFactor=roughness)
 
 
-def _frames(motion: Motion, frames: list[int]) -> Motion:
-    jt = None if motion.joint_translations is None else motion.joint_translations[frames]
-    return Motion(motion.skeleton, motion.rotations[frames], motion.root_translation[frames],
-                  motion.fps, motion.name, jt)
+def part_mesh(mesh: MeshData, colour, roughness: float = 0.7) -> pyrender.Mesh:
+    """``mesh`` with its own vertex normals (smooth shading) and a matte ``colour``."""
+    prim = pyrender.Primitive(positions=mesh.vertices, normals=mesh.normals, indices=mesh.faces,
+                              material=material(colour, roughness), mode=pyrender.constants.GLTF.TRIANGLES)
+    return pyrender.Mesh([prim])
 
 
-def rest_motion(character: Character, n_frames: int = 1) -> Motion:
-    """The character standing in its rest pose with its soles on y = 0."""
-    sk = character.skeleton
-    root = np.zeros((n_frames, 3))
-    root[:, 1] = -sole_level(sk) / sk.metres_per_unit  # soles on y = 0
-    rot = np.broadcast_to(np.eye(3), (n_frames, sk.n_joints, 3, 3)).copy()
-    return Motion(sk, rot, root, 30.0, f"{character.name}-rest")
-
-
-# --- primitive helpers (metres, joint-local frame) -------------------------------------
-
-def _capsule(a: np.ndarray, b: np.ndarray, radius: float) -> trimesh.Trimesh:
-    """A capsule whose axis runs from point ``a`` to point ``b``."""
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    axis = b - a
-    length = float(np.linalg.norm(axis))
-    m = trimesh.creation.capsule(height=max(length, 1e-6), radius=radius, count=[12, 12])
-    z = np.array([0.0, 0.0, 1.0])
-    d = axis / length if length > 1e-9 else z
-    rot = trimesh.geometry.align_vectors(z, d)
-    rot[:3, 3] = (a + b) / 2.0
-    m.apply_transform(rot)
-    return m
-
-
-def _ellipsoid(centre, radii, subdivisions: int = 2) -> trimesh.Trimesh:
-    m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
-    m.apply_scale(np.asarray(radii, float))
-    m.apply_translation(np.asarray(centre, float))
-    return m
-
-
-def _sphere(centre, radius: float, subdivisions: int = 2) -> trimesh.Trimesh:
-    return _ellipsoid(centre, (radius, radius, radius), subdivisions)
-
-
-@dataclass(frozen=True)
-class Palette:
-    body: Colour
-    limbs: Colour
-    head: Colour
-    hands: Colour
-    feet: Colour
-    accent: Colour
-    eye: Colour = (255, 255, 255)
-    pupil: Colour = (20, 20, 30)
-
-
-@dataclass(frozen=True)
-class Design:
-    """What distinguishes one character: proportions, thickness, palette, extras.
-
-    Feet keep a human foot-to-leg ratio (heel to toe tip about 0.28 leg lengths): the
-    motion is a human's, and longer cartoon feet would scrape the table in mid-swing.
-    Big shoes are drawn with a thicker foot part instead."""
-
-    proportions: BodyProportions
-    palette: Palette
-    limb_radius: float  # fraction of height
-    torso_radii: tuple[float, float, float]  # fractions of height
-    head_radius: float  # fraction of height
-    extras: str = ""
-
-
-_DESIGNS: dict[str, Design] = {
-    "robot": Design(
-        BodyProportions(thigh=0.16, shin=0.15, ankle_height=0.045, foot_length=0.055, toe_length=0.03,
-                        hip_half_width=0.07, pelvis_drop=0.03, lower_spine=0.12, upper_spine=0.15,
-                        neck=0.08, head_top=0.20, shoulder_half_width=0.12, shoulder_drop=0.03,
-                        upper_arm=0.12, forearm=0.11, hand=0.05),
-        Palette(body=(30, 110, 255), limbs=(255, 140, 0), head=(255, 215, 0), hands=(255, 40, 40),
-                feet=(255, 40, 40), accent=(255, 40, 40)),
-        limb_radius=0.045, torso_radii=(0.13, 0.15, 0.10), head_radius=0.13, extras="antenna",
-    ),
-    "cat": Design(
-        BodyProportions(thigh=0.15, shin=0.15, ankle_height=0.04, foot_length=0.055, toe_length=0.03,
-                        hip_half_width=0.06, pelvis_drop=0.03, lower_spine=0.12, upper_spine=0.14,
-                        neck=0.07, head_top=0.22, shoulder_half_width=0.09, shoulder_drop=0.03,
-                        upper_arm=0.11, forearm=0.10, hand=0.05),
-        Palette(body=(255, 130, 20), limbs=(255, 130, 20), head=(255, 130, 20), hands=(255, 255, 255),
-                feet=(255, 255, 255), accent=(255, 110, 180), eye=(120, 255, 90)),
-        limb_radius=0.04, torso_radii=(0.11, 0.15, 0.10), head_radius=0.14, extras="ears,tail,belly",
-    ),
-    "kid": Design(
-        BodyProportions(thigh=0.17, shin=0.16, ankle_height=0.04, foot_length=0.06, toe_length=0.03,
-                        hip_half_width=0.06, pelvis_drop=0.03, lower_spine=0.12, upper_spine=0.14,
-                        neck=0.07, head_top=0.20, shoulder_half_width=0.10, shoulder_drop=0.03,
-                        upper_arm=0.12, forearm=0.11, hand=0.05),
-        Palette(body=(235, 30, 70), limbs=(255, 205, 160), head=(255, 205, 160), hands=(255, 205, 160),
-                feet=(255, 220, 0), accent=(40, 70, 220)),
-        limb_radius=0.035, torso_radii=(0.11, 0.14, 0.08), head_radius=0.13, extras="hair,trousers",
-    ),
-}
-
-CHARACTER_NAMES: tuple[str, ...] = tuple(_DESIGNS)
-
-
-def build_character(name: str = "robot", height_m: float = DEFAULT_HEIGHT_M) -> Character:
-    """Build character ``name`` (one of :data:`CHARACTER_NAMES`) standing ``height_m`` tall.
-
-    Height runs from the soles to the top of the head (extras such as ears or an antenna
-    may stick out a little above it).
-    """
-    if name not in _DESIGNS:
-        raise CharacterError(f"unknown character {name!r}; choose one of {', '.join(CHARACTER_NAMES)}")
-    if not 0.01 <= height_m <= 2.0:
-        raise CharacterError(f"character height {height_m} m is outside 0.01-2 m")
-    d = _DESIGNS[name]
-    sk = canonical_skeleton(d.proportions, height_m, name=name)
-    off = {j.name: j.offset * CM for j in sk.joints}
-    h, pal = height_m, d.palette
-    r = d.limb_radius * h
-    parts: list[Part] = []
-
-    def add(part: str, joint: str, mesh: trimesh.Trimesh, colour: Colour) -> None:
-        parts.append(Part(part, joint, mesh, colour))
-
-    o = np.zeros(3)
-    # Torso: one ellipsoid spanning hips..neck, hung on the spine joint so it bends with it.
-    spine_len = float(np.linalg.norm(off["neck"]))
-    hips_to_spine = float(np.linalg.norm(off["spine"]))
-    tx, ty, tz = (np.array(d.torso_radii) * h)
-    ty = max(ty, 0.5 * (spine_len + hips_to_spine))  # reach from the belt to the shoulders
-    add("torso", "spine", _ellipsoid((0, 0.45 * (spine_len - hips_to_spine), 0), (tx, ty, tz)), pal.body)
-    trouser = pal.accent if "trousers" in d.extras else pal.body
-    add("pelvis", "hips", _ellipsoid((0, -0.3 * off["spine"][1], 0), (tx * 0.9, ty * 0.45, tz * 0.9)), trouser)
-    # Head: a big sphere centred a bit above the head joint, with eyes on its front (+Z).
-    hr = d.head_radius * h
-    hc = np.array([0.0, float(np.linalg.norm(off["head_end"])) - hr, 0.0])
-    add("neck", "neck", _capsule(o, off["head"], r * 1.3), pal.limbs)
-    add("head", "head", _sphere(hc, hr, 3), pal.head)
-    for side in (-1, 1):
-        eye_c = hc + np.array([side * 0.38 * hr, 0.12 * hr, 0.82 * hr])
-        add(f"eye_{side}", "head", _sphere(eye_c, 0.28 * hr), pal.eye)
-        add(f"pupil_{side}", "head", _sphere(eye_c + np.array([0, -0.02 * hr, 0.2 * hr]), 0.14 * hr), pal.pupil)
-    # Limbs: capsules along each bone, hands and feet as round blobs.
-    for side in ("left", "right"):
-        leg_colour = pal.accent if "trousers" in d.extras else pal.limbs
-        add(f"{side}_thigh", f"{side}_hip", _capsule(o, off[f"{side}_knee"], r * 1.15), leg_colour)
-        add(f"{side}_shin", f"{side}_knee", _capsule(o, off[f"{side}_ankle"], r), leg_colour)
-        toe = off[f"{side}_toe"]
-        ankle_h = -float(toe[1] + off[f"{side}_toe_end"][1])  # toe end site is on the sole
-        foot_r = min(r * 1.1, 0.95 * ankle_h)
-        sole_axis = np.array([0.0, foot_r - ankle_h, 0.0])  # a flat foot resting on y=0
-        add(f"{side}_foot", f"{side}_ankle",
-            _capsule(sole_axis + [0, 0, -0.15 * toe[2]], sole_axis + [0, 0, toe[2] + off[f"{side}_toe_end"][2] * 0.5], foot_r),
-            pal.feet)
-        add(f"{side}_upper_arm", f"{side}_shoulder", _capsule(o, off[f"{side}_elbow"], r), pal.limbs)
-        add(f"{side}_forearm", f"{side}_elbow", _capsule(o, off[f"{side}_hand"], r * 0.9), pal.limbs)
-        add(f"{side}_hand", f"{side}_hand", _sphere(off[f"{side}_hand_end"] * 0.5, r * 1.35), pal.hands)
-    if "antenna" in d.extras:
-        top = hc + np.array([0, hr, 0])
-        add("antenna", "head", _capsule(top - [0, 0.2 * hr, 0], top + [0, 0.35 * hr, 0], 0.18 * hr), pal.limbs)
-        add("antenna_ball", "head", _sphere(top + [0, 0.45 * hr, 0], 0.2 * hr), pal.accent)
-        for side in (-1, 1):  # round "ear" bolts
-            add(f"bolt_{side}", "head", _sphere(hc + [side * hr, 0, 0], 0.22 * hr), pal.accent)
-    if "ears" in d.extras:
-        for side in (-1, 1):
-            c = hc + np.array([side * 0.6 * hr, 0.8 * hr, 0])
-            add(f"ear_{side}", "head", _ellipsoid(c, (0.3 * hr, 0.42 * hr, 0.18 * hr)), pal.head)
-            add(f"ear_inner_{side}", "head", _ellipsoid(c + [0, -0.02 * hr, 0.08 * hr], (0.18 * hr, 0.28 * hr, 0.13 * hr)), pal.accent)
-        add("nose", "head", _sphere(hc + np.array([0, -0.2 * hr, 0.98 * hr]), 0.14 * hr), pal.accent)
-    if "tail" in d.extras:
-        add("tail", "hips", _capsule(np.array([0, 0, -0.8 * tz]), np.array([0, 0.25 * h, -0.25 * h]), r * 0.9), pal.body)
-    if "belly" in d.extras:
-        add("belly", "spine", _ellipsoid((0, 0, 0.55 * tz), (0.7 * tx, 0.7 * ty, 0.5 * tz)), pal.hands)
-    if "hair" in d.extras:
-        add("hair", "head", _ellipsoid(hc + np.array([0, 0.25 * hr, -0.12 * hr]), (1.06 * hr, 0.85 * hr, 1.0 * hr)), (240, 120, 30))  # ginger: dark hair would not show in projected light
-    return Character(name, sk, parts, height_m)
+def to_trimesh(mesh: MeshData, colour=None) -> trimesh.Trimesh:
+    """``mesh`` as a trimesh (vertices, faces, normals kept), optionally face-coloured."""
+    out = trimesh.Trimesh(mesh.vertices.astype(np.float64), mesh.faces.astype(np.int64),
+                          vertex_normals=mesh.normals.astype(np.float64), process=False)
+    if colour is not None:
+        out.visual.face_colors = np.array([*colour, 255], dtype=np.uint8)
+    return out
 
 
 def save_character(character: Character, folder: str | Path) -> Path:
@@ -271,7 +59,9 @@ def save_character(character: Character, folder: str | Path) -> Path:
     parts and joints) to ``folder``; returns the JSON path."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    mesh = character.posed_mesh()
+    poses = character.all_part_poses(rest_motion(character), [0])[0]
+    mesh = trimesh.util.concatenate([to_trimesh(p.mesh.transformed(T), p.colour)
+                                     for p, T in zip(character.parts, poses)])
     mesh.export(folder / f"{character.name}.glb")
     meta = {
         "name": character.name,
@@ -284,3 +74,9 @@ def save_character(character: Character, folder: str | Path) -> Path:
     path = folder / f"{character.name}.json"
     path.write_text(json.dumps(meta, indent=2))
     return path
+
+
+__all__ = ["material", "part_mesh", "to_trimesh", "save_character",
+           # re-exported from ar.scene.characters
+           "CHARACTER_NAMES", "DEFAULT_HEIGHT_M", "Character", "CharacterError", "Design", "Palette", "Part",
+           "build_character", "rest_motion"]

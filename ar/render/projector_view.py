@@ -1,13 +1,9 @@
 """Render 3-D content from the projector's viewpoint (pyrender, headless EGL).
 
-Frames
-    *board frame* (see :mod:`ar.boards`): origin at the pattern's top-left outer corner,
-    +x right, +y down the page, +z into the table.
-    *scene frame* (what 3-D content is authored in): **Y-up, metres, origin at the
-    board centre on the table surface**: +X = board +x, +Y = up off the table
-    (= board -z), +Z = board +y (toward the bottom edge of the printed page). This
-    matches the retrieval code's Y-up metre skeletons, so a character placed at the
-    origin stands in the middle of the board.
+Frames: the *board frame* and the Y-up *scene frame* are defined in
+:mod:`ar.scene.description` (re-exported here: ``board_from_scene``,
+``projector_from_scene``, ...). The scene frame matches the retrieval code's Y-up metre
+skeletons, so a character placed at the origin stands in the middle of the board.
 
 The projector is an inverse camera: to make projected light land on the table where a
 virtual object would be, render the scene with the projector's intrinsics from the
@@ -29,30 +25,8 @@ import pyrender
 import trimesh
 
 from ar import Board, CalibrationError, invert, make_transform
-
-#: OpenCV camera axes (x right, y down, z forward) -> OpenGL camera axes (x right, y up, z back)
-CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
-
-#: rotation part of T_board_from_scene (columns: scene X, Y, Z written in board axes)
-_R_BOARD_FROM_SCENE = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
-
-
-def board_from_scene(board: Board) -> np.ndarray:
-    """``T_board_from_scene`` for ``board`` (scene = Y-up, origin at the board centre)."""
-    return make_transform(_R_BOARD_FROM_SCENE, board.centre)
-
-
-def scene_to_board_points(points_scene: np.ndarray, board: Board) -> np.ndarray:
-    """(N,3) scene-frame points -> board-frame points."""
-    T = board_from_scene(board)
-    return np.asarray(points_scene, np.float64) @ T[:3, :3].T + T[:3, 3]
-
-
-def board_to_scene_points(points_board: np.ndarray, board: Board) -> np.ndarray:
-    """(N,3) board-frame points -> scene-frame points."""
-    T = invert(board_from_scene(board))
-    return np.asarray(points_board, np.float64) @ T[:3, :3].T + T[:3, 3]
-
+from ar.scene import (CV_TO_GL, board_from_scene, board_to_scene_points, projector_from_scene,  # noqa: F401 (re-exported)
+                      scene_to_board_points)
 
 def opencv_to_pyrender_pose(T_cam_from_world: np.ndarray) -> np.ndarray:
     """OpenCV extrinsics (world -> camera) -> pyrender camera node pose (camera -> world, GL axes)."""
@@ -62,11 +36,6 @@ def opencv_to_pyrender_pose(T_cam_from_world: np.ndarray) -> np.ndarray:
 def pyrender_to_opencv_pose(camera_node_pose: np.ndarray) -> np.ndarray:
     """Inverse of :func:`opencv_to_pyrender_pose`."""
     return invert(camera_node_pose @ CV_TO_GL)
-
-
-def projector_from_scene(T_cam_from_board: np.ndarray, T_proj_from_cam: np.ndarray, board: Board) -> np.ndarray:
-    """``T_proj_from_scene``: chain tracked board pose, rig extrinsics and the scene frame."""
-    return T_proj_from_cam @ T_cam_from_board @ board_from_scene(board)
 
 
 class ProjectorRenderer:

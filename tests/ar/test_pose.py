@@ -6,8 +6,8 @@ import pytest
 
 from ar.boards import DEFAULT_BOARD_SPEC, Board
 from ar.geometry import invert, look_at, pose_error, project_points
-from ar.pose import estimate_board_pose
-from ar.synthetic import Degradation, SyntheticCamera, TrajectoryConfig, handheld_trajectory
+from ar.pose import RegionPoseEstimator, estimate_board_pose
+from ar.synthetic import Degradation, SyntheticCamera, TrajectoryConfig, default_camera, handheld_trajectory
 
 
 @pytest.fixture(scope="module")
@@ -101,3 +101,58 @@ def test_trajectory_is_smooth_with_tremor():
     assert np.all(np.abs(dist - 0.5) < 0.05)  # hovers at the requested distance
     steps = np.linalg.norm(np.diff(centres, axis=0), axis=1)
     assert steps.max() < 0.01 and steps.min() > 0  # moves, but never jumps
+
+
+# ---------------------------------------------------------------- region search (issue 13)
+def test_region_search_gives_the_full_frame_poses_and_uses_the_region():
+    """Frame after frame, the region predicted from the last pose yields the same pose as a
+    search of the whole frame (same detector on a crop), and the region path is really taken."""
+    board = Board(DEFAULT_BOARD_SPEC)
+    camera = default_camera().scaled(640, 480)
+    cam = SyntheticCamera(board, camera=camera, supersample=1)
+    poses = handheld_trajectory(board, 12, TrajectoryConfig(distance_m=0.5, seed=8))
+    region = RegionPoseEstimator(board, camera.K, camera.dist)
+    rng = np.random.default_rng(1)
+    for T in poses:
+        frame = cam.render(T, rng=rng)
+        full = estimate_board_pose(frame, board, camera.K, camera.dist)
+        fast = region.estimate(frame)
+        assert full is not None and fast is not None
+        np.testing.assert_allclose(fast.T_cam_from_board, full.T_cam_from_board, atol=1e-6)
+    assert region.counts == {"region": 11, "full": 1, "fallback": 0, "lost": 0}
+
+
+def test_region_search_falls_back_to_the_whole_frame():
+    """A board that jumps out of the predicted region is still found (the whole frame is
+    searched in the same call); after frames without it, the search starts whole."""
+    board = Board(DEFAULT_BOARD_SPEC)
+    camera = default_camera().scaled(640, 480)
+    cam = SyntheticCamera(board, camera=camera, supersample=1)
+    T = handheld_trajectory(board, 1, TrajectoryConfig(distance_m=0.9, seed=2))[0]
+    moved = T.copy()
+    moved[0, 3] += 0.25  # 25 cm sideways between two frames: beyond the region
+    region = RegionPoseEstimator(board, camera.K, camera.dist)
+    assert region.estimate(cam.render(T)) is not None
+    box, scale = region.predicted_region((640, 480))
+    assert scale == 1 and (box[2] - box[0]) * (box[3] - box[1]) < 0.6 * 640 * 480
+    est = region.estimate(cam.render(moved))
+    assert est is not None and pose_error(est.T_cam_from_board, moved)[1] < 2.0
+    assert region.counts["fallback"] == 1
+    blank = np.zeros((480, 640, 3), np.uint8)
+    for _ in range(3):
+        assert region.estimate(blank) is None
+    assert region.predicted_region((640, 480)) is None  # too long without the board: search whole
+    assert region.estimate(cam.render(T)) is not None
+    assert region.counts == {"region": 0, "full": 2, "fallback": 1, "lost": 3}
+
+
+def test_region_scale_grows_with_marker_size():
+    board = Board(DEFAULT_BOARD_SPEC)
+    camera = default_camera()
+    cam = SyntheticCamera(board, camera=camera, supersample=1)
+    scales = []
+    for d in (0.6, 0.2):
+        region = RegionPoseEstimator(board, camera.K, camera.dist)
+        region.estimate(cam.render(handheld_trajectory(board, 1, TrajectoryConfig(distance_m=d, seed=2))[0]))
+        scales.append(region.predicted_region(camera.size)[1])
+    assert scales == [1, 2]

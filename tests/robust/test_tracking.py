@@ -8,6 +8,7 @@ import pytest
 
 from app.stress import tracking as stress
 from ar.filtering import PoseTracker
+from ar.pose import RegionPoseEstimator
 
 
 @pytest.fixture(scope="module")
@@ -78,3 +79,27 @@ def test_harness_detects_slow_recovery_and_wild_poses():
     assert slow["recovery_frames_max"] is not None and slow["recovery_frames_max"] >= 3
     jittery = stress.run_scenario(70, seed=0, camera=cam, tracker=_Jittery())
     assert jittery.wild_poses >= 1
+
+
+def test_region_search_survives_the_same_sequence(monkeypatch):
+    """The live rig's fast path (:class:`ar.pose.RegionPoseEstimator`: the region the last
+    pose predicts, the whole frame when that fails) through the same covered / out-of-view /
+    blurred / flickering sequence: no wild pose, recovery within one frame -- the fallback
+    finds the board wherever it comes back -- and the region search is really used."""
+    cam = stress.half_resolution_camera()
+    estimators = []
+
+    def region_estimate(frame, board, K, dist):
+        if not estimators:
+            estimators.append(RegionPoseEstimator(board, K, dist))
+        return estimators[0].estimate(frame)
+
+    monkeypatch.setattr(stress, "estimate_board_pose", region_estimate)
+    res = stress.run_scenario(300, seed=0, camera=cam)
+    d = res.to_dict()
+    assert res.frames == 300 and res.crashes == 0, res.crash_examples
+    assert res.wild_poses == 0 and res.never_recovered == 0
+    assert d["recovery_frames_max"] is not None and d["recovery_frames_max"] <= 1, d["recovery_frames_by_event"]
+    counts = estimators[0].counts
+    print(f"\nregion search over the stress sequence: {counts}")
+    assert counts["region"] >= 150 and counts["fallback"] + counts["full"] >= 5

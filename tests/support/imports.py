@@ -41,6 +41,7 @@ PACKAGES = ("retrieval", "ar", "app")
 UNITS = (
     "retrieval",
     "retrieval.errors",
+    "retrieval.durable",
     "retrieval.motion",
     "retrieval.features",
     "retrieval.codes",
@@ -50,6 +51,7 @@ UNITS = (
     "retrieval.experiment",
     "retrieval.animation",
     "ar",
+    "ar.scene",
     "ar.render",
     "ar.closed_loop",
     "app",
