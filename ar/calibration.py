@@ -42,6 +42,7 @@ from ar.boards import Board
 from ar.errors import CalibrationError
 from ar.geometry import look_at, make_transform, pixels_to_plane, pose_error, project_points
 from ar.pose import solve_board_pose
+from retrieval.durable import durable_write
 
 MIN_VIEW_POINTS = 8
 #: Calibration files are a few kB; anything over this is refused before it is read.
@@ -72,7 +73,7 @@ def validate_intrinsics(K: np.ndarray, dist: np.ndarray, image_size: Sequence[in
         raise CalibrationError(f"{what} camera_matrix must be a finite 3x3 matrix", path)
     w, h = (int(v) for v in image_size)
     if w <= 0 or h <= 0:
-        raise CalibrationError(f"{what} image_size must be positive, got {list(image_size)}", path)
+        raise CalibrationError(f"{what} image_size must be positive, got {w}x{h}", path)
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
     # field of view between ~5 and ~160 degrees across the width
     if not (0.09 * w <= fx <= 12.0 * w and 0.09 * w <= fy <= 12.0 * w):
@@ -120,11 +121,15 @@ def _read_json(path: str | Path) -> dict:
 
 
 def _save_json(path: str | Path, data: dict) -> Path:
-    """Write a calibration dict as JSON (making its folder); returns the path."""
+    """Write a calibration dict as JSON (making its folder) durably and atomically
+    (:func:`retrieval.durable.durable_write`: a temporary file fsynced, renamed over the
+    old one, the folder fsynced), so a kill or power cut during a save leaves the old
+    calibration or the new one, never an empty or partial file; returns the path."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=2))
-    return path
+    try:
+        return durable_write(path, json.dumps(data, indent=2).encode("utf-8"))
+    except OSError as exc:
+        raise CalibrationError(f"cannot write: {exc.strerror or exc}", path) from None
 
 
 @dataclass
@@ -600,7 +605,7 @@ def write_capture(folder: str | Path, captures: Sequence[tuple[CaptureStep, dict
             cv2.imwrite(str(folder / step.file_name(shown)), frame)
         log["inner"] = list(pattern.inner)
         log["steps"][f"step_{step.index:02d}"] = {"pattern_centre": list(pattern.centre), "instruction": step.instruction}
-    (folder / CAPTURE_LOG).write_text(json.dumps(log, indent=2))
+    durable_write(folder / CAPTURE_LOG, json.dumps(log, indent=2).encode("utf-8"))
     return folder
 
 

@@ -1,6 +1,10 @@
 """`storybeam stress`: the long robustness campaign (fuzzed motion files, SIGKILLed story
 saves, bad packages and calibration files, lost tracking, a random-touch monkey), and
 on request coverage-guided fuzzing with atheris (``--only atheris``; ``pip install atheris``).
+``storybeam stress power-loss --json OUT`` runs the power-loss campaign alone (the
+product's recorded file-system calls replayed onto simulated post-crash disks; needs
+strace) and writes its own JSON (``crash_states``, ``acked_lost``, ``corrupt_accepted``,
+``open_failures``, ``integrity_failures``, ``control``).
 
 The short versions of the same harnesses run in CI (tests/robust/test_*.py); this command
 runs them for as long as asked and writes one JSON summary with the headline figures
@@ -24,14 +28,25 @@ from app.stress.atheris_fuzz import require_atheris, run_atheris_campaign  # che
 from retrieval.errors import StoryBeamError
 
 #: The harnesses run by default (``--only`` picks a subset).
-HARNESSES = ("fuzz", "kill", "packages", "tracking", "monkey")
-#: Harnesses that run only when named in ``--only``: atheris is an optional install.
-OPTIONAL_HARNESSES = ("atheris",)
+HARNESSES = ("fuzz", "kill", "packages", "tracking", "monkey", "monkey-teacher")
+#: Harnesses that run only when named in ``--only``: atheris is an optional install;
+#: power-loss needs strace (also ``storybeam stress power-loss``, with its own JSON).
+OPTIONAL_HARNESSES = ("atheris", "power-loss")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("stress", help="robustness campaign (fuzzing, crash-safety, tracking loss, monkey)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("campaign", nargs="?", choices=("power-loss",), default=None,
+                   help="run one campaign alone and write its own JSON: power-loss (the product's recorded "
+                        "file-system calls replayed onto simulated post-crash disks; docs/reliability.md)")
+    p.add_argument("--cuts", type=int, default=150,
+                   help="power-loss: cut points per recorded workload, 7 crash states each (default 150)")
+    p.add_argument("--workloads", type=int, default=2, help="power-loss: recorded workloads (default 2)")
+    p.add_argument("--steps", type=int, default=60, help="power-loss: product operations per workload (default 60)")
+    p.add_argument("--control", default="no-dir-fsync", choices=("no-dir-fsync", "plain-write", "synchronous-normal"),
+                   help="power-loss: the weakened setting of the control run, which must lose data "
+                        "(default no-dir-fsync)")
     p.add_argument("--seconds", type=float, default=60.0,
                    help="time budget per harness in seconds (default 60); a count option below stops it earlier")
     p.add_argument("--only", default=",".join(HARNESSES),
@@ -67,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
     """Run each selected harness in turn, add up the headline figures, print (and with
     ``--json`` write) the summary; exit 1 when any harness found a crash, hang, lost story
     or other failure."""
+    if args.campaign == "power-loss":
+        return _power_loss_command(args)
     names = selected(args.only)
     work = args.work_dir or Path(tempfile.mkdtemp(prefix="storybeam-stress-"))
     work.mkdir(parents=True, exist_ok=True)
@@ -145,13 +162,43 @@ def _run_tracking(args: argparse.Namespace, work: Path) -> dict:
     return run_tracking_campaign(frames=args.frames, seed=args.seed)
 
 
+def _run_power_loss(args: argparse.Namespace, work: Path) -> dict:
+    from app.stress.power_loss import run_power_loss  # deferred: the stress layer (OpenCV, strace) only when run
+
+    total = args.workloads * args.cuts * 7 + args.cuts * 7
+    with tqdm(total=total, desc="power-loss crash states", unit="state", file=sys.stderr) as bar:
+        return run_power_loss(work, workloads=args.workloads, steps=args.steps, cuts=args.cuts, seed=args.seed,
+                              control=args.control, progress=bar.update)
+
+
+def _power_loss_command(args: argparse.Namespace) -> int:
+    """``storybeam stress power-loss``: print and write the campaign's own JSON; exit 1 when
+    acknowledged data was lost, damage was accepted, a profile did not open or pass its
+    integrity check, or the control lost nothing (the harness would then prove nothing)."""
+    work = args.work_dir or Path(tempfile.mkdtemp(prefix="storybeam-power-loss-"))
+    out = _run_power_loss(args, work)
+    text = json.dumps(out, indent=1)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(text + "\n")
+    print(text)
+    return 1 if out["failures"] else 0
+
+
 def _run_monkey(args: argparse.Namespace, work: Path) -> dict:
     from app.stress.monkey import run_monkey  # deferred: the stress layer only when run (Kivy runs in a child)
 
     return run_monkey(work, seconds=args.seconds, seed=args.seed, progress=True)
 
 
+def _run_monkey_teacher(args: argparse.Namespace, work: Path) -> dict:
+    from app.stress.monkey import run_monkey  # deferred: the stress layer only when run (Kivy runs in a child)
+
+    return run_monkey(work, seconds=args.seconds, seed=args.seed, progress=True, teacher=True)
+
+
 _RUNNERS: dict[str, Callable[[argparse.Namespace, Path], dict]] = {
     "fuzz": _run_fuzz, "kill": _run_kill, "packages": _run_packages, "tracking": _run_tracking,
-    "monkey": _run_monkey, "atheris": _run_atheris,
+    "monkey": _run_monkey, "monkey-teacher": _run_monkey_teacher, "atheris": _run_atheris,
+    "power-loss": _run_power_loss,
 }

@@ -28,8 +28,10 @@ import csv
 import hashlib
 import hmac
 import json
+import math
 import os
 import re
+import secrets
 import shutil
 import sqlite3
 import tempfile
@@ -42,6 +44,9 @@ from pathlib import Path
 from typing import Iterator
 
 from app.story.model import Story, StoryError, new_id
+from app.story.narration import ASSET_PREFIX, NarrationError, check_package_narrations, referenced_assets
+from retrieval.durable import clean_temporaries, durable_file, durable_move, durable_tree, durable_write, make_dirs
+from retrieval.durable import remove_tree
 from retrieval.errors import StoryBeamError
 
 #: 'SBm1' - marks a database as a StoryBeam profile.
@@ -98,6 +103,52 @@ _ASSET_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 # Teacher PIN hashing (hashlib.pbkdf2_hmac, random salt; parameters stored with the hash).
 PIN_ITERATIONS = 200_000
 _PIN_PATTERN = re.compile(r"^[0-9]{4,8}$")
+# Wrong PINs are slowed down (see :func:`pin_delay_after`); the state is kept in the
+# profile, so closing the app does not reset it.
+PIN_FREE_ATTEMPTS = 4
+PIN_FIRST_DELAY_S = 30.0
+PIN_DELAY_DOUBLES_EVERY = 5
+PIN_MAX_DELAY_S = 15 * 60.0
+#: Digits of the recovery code shown once when a PIN is set (10**12 codes: not guessable by tapping).
+RECOVERY_CODE_DIGITS = 12
+_RECOVERY_PATTERN = re.compile(rf"^[0-9]{{{RECOVERY_CODE_DIGITS}}}$")
+
+
+def pin_delay_after(failures: int) -> float:
+    """Seconds to wait before the next PIN try after ``failures`` wrong ones in a row.
+
+    The first :data:`PIN_FREE_ATTEMPTS` (4) are free (a teacher mistypes); from the 5th,
+    30 s, doubling every 5 failures, at most 15 minutes (phones do the same: Android waits
+    30 s after 5 failures). So failures 5-9 wait 30 s each, 10-14 60 s, 15-19 120 s, and
+    the 20th wrong PIN in a row can be typed no earlier than
+    ``5·30 + 5·60 + 5·120 = 1 050 s`` (17.5 minutes) after the first.
+    """
+    if failures <= PIN_FREE_ATTEMPTS:
+        return 0.0
+    doublings = min((failures - PIN_FREE_ATTEMPTS - 1) // PIN_DELAY_DOUBLES_EVERY, 32)
+    return min(PIN_FIRST_DELAY_S * 2.0 ** doublings, PIN_MAX_DELAY_S)
+
+
+def valid_pin(pin: object) -> bool:
+    """Whether ``pin`` has the form of a teacher PIN (4 to 8 digits)."""
+    return isinstance(pin, str) and _PIN_PATTERN.match(pin) is not None
+
+
+@dataclass(frozen=True)
+class PinCheck:
+    """The answer to one PIN (or recovery code) try.
+
+    ``ok``: it matched. ``refused``: it was not even checked, because the wait after the
+    last wrong tries is not over. ``wait_s``: seconds before the next try is accepted.
+    ``failures``: wrong tries in a row so far.
+    """
+
+    ok: bool
+    refused: bool
+    wait_s: float
+    failures: int
+
+
 MAX_NAME_CHARS = 40
 
 
@@ -162,19 +213,21 @@ def _as_storage_error(where: Path, action: str) -> Iterator[None]:
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so that a crash leaves the old file or the new one."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
+    """Write ``data`` to ``path`` durably (:func:`retrieval.durable.durable_write`: a crash
+    or power cut leaves the old file or the new one, and after return the new one)."""
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+        durable_write(path, data)
+    except OSError as exc:
+        raise StorageError(f"{path}: not saved ({_os_problem(exc)})") from None
+
+
+def _os_problem(exc: OSError) -> str:
+    """A user-facing reason for a failed file write."""
+    if exc.errno in (28, 27):  # ENOSPC, EFBIG
+        return "the device storage is full; free some space"
+    if exc.errno in (13, 1, 30):  # EACCES, EPERM, EROFS
+        return f"the folder cannot be written: {exc.strerror}"
+    return f"{exc.strerror or exc}"
 
 
 class ProfileStore:
@@ -184,6 +237,20 @@ class ProfileStore:
         self.db_path = Path(db_path)
         self.assets_dir = self.db_path.with_name(self.db_path.name + ".assets")
         self._conn = self._open()
+        self.leftovers_removed = self._clean_leftovers()
+
+    def _clean_leftovers(self) -> int:
+        """Remove what a crash can leave in the assets folder: temporary files of an
+        unfinished durable write and ``.import-*`` staging folders of an unfinished
+        import (their story row was never committed). Returns how many were removed."""
+        if not self.assets_dir.is_dir():
+            return 0
+        removed = len(clean_temporaries(self.assets_dir, recursive=True))
+        for staging in self.assets_dir.glob(".import-*"):
+            if staging.is_dir():
+                remove_tree(staging)
+                removed += 1
+        return removed
 
     # -- opening, checking and migrating ---------------------------------------------
     def _open(self) -> sqlite3.Connection:
@@ -194,7 +261,7 @@ class ProfileStore:
             with open(path, "rb") as fh:
                 if fh.read(16) != SQLITE_HEADER:
                     raise StorageError(f"{path}: not a StoryBeam database (not an SQLite file, or its header is damaged)")
-        path.parent.mkdir(parents=True, exist_ok=True)
+        make_dirs(path.parent)
         with _as_storage_error(path, "cannot open"):
             conn = sqlite3.connect(str(path), isolation_level=None, timeout=5.0)
         try:
@@ -238,8 +305,11 @@ class ProfileStore:
                 conn.execute(f"PRAGMA application_id={APPLICATION_ID}")
                 conn.execute(f"PRAGMA user_version={target}")
                 conn.execute("COMMIT")
-            except BaseException:
+            except BaseException as exc:
                 conn.execute("ROLLBACK")
+                if isinstance(exc, sqlite3.Error):  # say what failed: the stories are untouched
+                    raise StorageError(f"{self.db_path}: could not upgrade the profile to schema {target} "
+                                       f"({exc}); it was left as it was") from None
                 raise
 
     @property
@@ -315,7 +385,7 @@ class ProfileStore:
     def delete_story(self, story_id: str) -> None:
         with self._transaction() as conn:
             conn.execute("DELETE FROM stories WHERE id = ?", (story_id,))
-        shutil.rmtree(self._story_assets(story_id), ignore_errors=True)
+        remove_tree(self._story_assets(story_id))
 
     # -- assets -----------------------------------------------------------------------
     def _story_assets(self, story_id: str) -> Path:
@@ -328,6 +398,15 @@ class ProfileStore:
         path = self._story_assets(story_id) / name
         _atomic_write(path, data)
         return path
+
+    def story_assets_dir(self, story_id: str) -> Path:
+        """The folder of a story's assets (it may not exist yet)."""
+        return self._story_assets(story_id)
+
+    def asset_path(self, story_id: str, name: str) -> Path:
+        """Where a story's asset file is (e.g. a narration, for a player that wants a path)."""
+        _check_asset_name(name, f"story {story_id}")
+        return self._story_assets(story_id) / name
 
     def asset_names(self, story_id: str) -> list[str]:
         folder = self._story_assets(story_id)
@@ -354,30 +433,152 @@ class ProfileStore:
                          "ON CONFLICT(key) DO UPDATE SET value = excluded.value", (key, value))
 
     # -- teacher PIN ------------------------------------------------------------------
+    #: The clock PIN delays are measured with (seconds since the epoch, so a wait survives
+    #: closing the app). Tests and the UI monkey assign their own (no real sleeps).
+    pin_clock = staticmethod(time.time)
+
     def has_pin(self) -> bool:
         return self.get_setting("teacher_pin") is not None
 
-    def set_pin(self, pin: str) -> None:
-        """Set the teacher PIN (4-8 digits); only a salted PBKDF2 hash is stored."""
-        if not isinstance(pin, str) or not _PIN_PATTERN.match(pin):
-            raise StorageError("teacher PIN: must be 4 to 8 digits")
+    def _hash_secret(self, secret: str) -> str:
         salt = os.urandom(16)
-        digest = hashlib.pbkdf2_hmac("sha256", pin.encode(), salt, PIN_ITERATIONS)
-        self.set_setting("teacher_pin", f"pbkdf2_sha256${PIN_ITERATIONS}${salt.hex()}${digest.hex()}")
+        digest = hashlib.pbkdf2_hmac("sha256", secret.encode(), salt, PIN_ITERATIONS)
+        return f"pbkdf2_sha256${PIN_ITERATIONS}${salt.hex()}${digest.hex()}"
+
+    def _secret_matches(self, key: str, secret: str, what: str) -> bool:
+        """Compare ``secret`` with the salted hash under setting ``key`` (constant time).
+        A damaged record is an error that says so, not a silent "wrong PIN" forever."""
+        record = self.get_setting(key)
+        if record is None:
+            return False
+        damaged = f"{self.db_path}: the {what} record is damaged"
+        parts = record.split("$")
+        if len(parts) != 4:
+            raise StorageError(f"{damaged} ({len(parts)} fields instead of 4); "
+                               "reset the PIN with the recovery code")
+        scheme, iterations, salt_hex, digest_hex = parts
+        if scheme != "pbkdf2_sha256":
+            raise StorageError(f"{damaged} (unknown scheme {scheme[:32]!r}); reset the PIN with the recovery code")
+        try:
+            rounds = int(iterations)
+            salt, want = bytes.fromhex(salt_hex), bytes.fromhex(digest_hex)
+            if not 1 <= rounds <= 10_000_000:
+                raise ValueError(f"{rounds} iterations")
+        except ValueError as exc:
+            raise StorageError(f"{damaged} ({exc}); reset the PIN with the recovery code") from None
+        return hmac.compare_digest(hashlib.pbkdf2_hmac("sha256", secret.encode(), salt, rounds), want)
+
+    def _set_pin_records(self, pin: str) -> str:
+        if not valid_pin(pin):
+            raise StorageError("teacher PIN: must be 4 to 8 digits")
+        code = "".join(secrets.choice("0123456789") for _ in range(RECOVERY_CODE_DIGITS))
+        records = {"teacher_pin": self._hash_secret(pin), "teacher_recovery": self._hash_secret(code)}
+        with self._transaction() as conn:  # PIN, recovery code and cleared delays: all or nothing
+            for key, value in records.items():
+                conn.execute("INSERT INTO settings (key, value) VALUES (?, ?) "
+                             "ON CONFLICT(key) DO UPDATE SET value = excluded.value", (key, value))
+            conn.execute("DELETE FROM settings WHERE key IN ('teacher_pin_attempts', 'teacher_recovery_attempts')")
+        return code
+
+    def has_recovery_code(self) -> bool:
+        return self.get_setting("teacher_recovery") is not None
+
+    def new_recovery_code(self) -> str:
+        """A new recovery code for the PIN in place (the old code stops working): for a
+        profile whose PIN was set before recovery codes existed. The UI calls it only right
+        after the right PIN was typed, and shows the code once."""
+        if not self.has_pin():
+            raise StorageError(f"{self.db_path}: no teacher PIN to make a recovery code for")
+        code = "".join(secrets.choice("0123456789") for _ in range(RECOVERY_CODE_DIGITS))
+        self.set_setting("teacher_recovery", self._hash_secret(code))
+        return code
+
+    def set_pin(self, pin: str) -> str:
+        """Set the teacher PIN (4-8 digits) and return a new recovery code
+        (:data:`RECOVERY_CODE_DIGITS` digits) to show the teacher once; only salted PBKDF2
+        hashes of both are stored. The UI asks a grown-up question before the first PIN."""
+        return self._set_pin_records(pin)
 
     def verify_pin(self, pin: str) -> bool:
-        """True when ``pin`` matches the stored PIN (constant-time comparison)."""
-        record = self.get_setting("teacher_pin")
-        if record is None or not isinstance(pin, str):
+        """True when ``pin`` matches the stored PIN (no delays: the UI uses :meth:`try_pin`)."""
+        if not valid_pin(pin):
             return False
+        return self._secret_matches("teacher_pin", pin, "teacher PIN")
+
+    def _attempts(self, key: str) -> tuple[int, float, float]:
+        """(failures in a row, wait-until time, the wait's length) stored under ``key``."""
+        raw = self.get_setting(key)
+        if raw is None:
+            return 0, 0.0, 0.0
         try:
-            scheme, iterations, salt_hex, digest_hex = record.split("$")
-            if scheme != "pbkdf2_sha256":
-                return False
-            digest = hashlib.pbkdf2_hmac("sha256", pin.encode(), bytes.fromhex(salt_hex), int(iterations))
-        except ValueError:
-            return False
-        return hmac.compare_digest(digest, bytes.fromhex(digest_hex))
+            data = json.loads(raw)
+            failures, until, delay = int(data["failures"]), float(data["until"]), float(data["delay"])
+        except (ValueError, TypeError, KeyError):  # damaged: never fewer delays than one failure more
+            failures = PIN_FREE_ATTEMPTS + 1
+            delay = pin_delay_after(failures)
+            return failures, self.pin_clock() + delay, delay
+        return max(failures, 0), until, delay
+
+    def _wait(self, key: str) -> float:
+        _failures, until, delay = self._attempts(key)
+        # never longer than the wait that was set: a clock put back cannot lock a teacher out
+        return max(0.0, min(until - self.pin_clock(), delay))
+
+    def _throttled_try(self, key: str, matches: bool | None) -> PinCheck:
+        """Record one try of the secret whose attempts are under ``key``; ``matches`` is
+        None when the try was refused before checking."""
+        failures, _until, _delay = self._attempts(key)
+        if matches is None:
+            return PinCheck(False, True, self._wait(key), failures)
+        if matches:
+            with self._transaction() as conn:
+                conn.execute("DELETE FROM settings WHERE key = ?", (key,))
+            return PinCheck(True, False, 0.0, 0)
+        failures += 1
+        delay = pin_delay_after(failures)
+        self.set_setting(key, json.dumps({"failures": failures, "until": self.pin_clock() + delay, "delay": delay}))
+        return PinCheck(False, False, delay, failures)
+
+    def pin_wait(self) -> float:
+        """Seconds before the next teacher PIN try is accepted (0: now)."""
+        return self._wait("teacher_pin_attempts")
+
+    def recovery_wait(self) -> float:
+        """Seconds before the next recovery-code try is accepted (0: now)."""
+        return self._wait("teacher_recovery_attempts")
+
+    def try_pin(self, pin: str) -> PinCheck:
+        """One PIN try from the number pad: refused unchecked while a wait runs; a wrong
+        PIN adds a failure and sets the next wait (:func:`pin_delay_after`), persisted."""
+        key = "teacher_pin_attempts"
+        if self._wait(key) > 0:
+            return self._throttled_try(key, None)
+        return self._throttled_try(key, valid_pin(pin) and self._secret_matches("teacher_pin", pin, "teacher PIN"))
+
+    def try_recovery_code(self, code: str) -> PinCheck:
+        """One recovery-code try (spaces and dashes ignored), slowed down like the PIN but
+        counted apart, so a child's wrong PINs never block the teacher's recovery."""
+        key = "teacher_recovery_attempts"
+        if self._wait(key) > 0:
+            return self._throttled_try(key, None)
+        code = code.replace(" ", "").replace("-", "") if isinstance(code, str) else ""
+        if self.get_setting("teacher_recovery") is None:
+            raise StorageError(f"{self.db_path}: no recovery code was set with this PIN")
+        ok = _RECOVERY_PATTERN.match(code) is not None and self._secret_matches("teacher_recovery", code,
+                                                                                "recovery code")
+        return self._throttled_try(key, ok)
+
+    def reset_pin(self, recovery_code: str, new_pin: str) -> str:
+        """Replace a forgotten PIN: the recovery code must match; returns the next
+        recovery code (the used one stops working). Stories and every other setting are
+        untouched."""
+        if not valid_pin(new_pin):
+            raise StorageError("teacher PIN: must be 4 to 8 digits")
+        check = self.try_recovery_code(recovery_code)
+        if not check.ok:
+            wait = f"; try again in {math.ceil(check.wait_s)} s" if check.wait_s > 0 else ""
+            raise StorageError(f"recovery code: wrong code{wait}")
+        return self._set_pin_records(new_pin)
 
     # -- class sessions and rosters ---------------------------------------------------
     def create_session(self, name: str) -> int:
@@ -444,7 +645,10 @@ class ProfileStore:
         story = self.load_story(story_id)
         story_bytes = json.dumps(story.to_dict(), ensure_ascii=False, indent=1).encode("utf-8")
         files = {"story.json": story_bytes}
+        voices = referenced_assets(story)
         for name in self.asset_names(story_id):
+            if name.startswith(ASSET_PREFIX) and name not in voices:
+                continue  # a replaced or undone narration: not part of the story
             files[f"assets/{name}"] = self.read_asset(story_id, name)
         manifest = {
             "format": PACKAGE_FORMAT_NAME,
@@ -454,13 +658,13 @@ class ProfileStore:
             "files": [{"name": n, "size": len(b), "sha256": hashlib.sha256(b).hexdigest()} for n, b in files.items()],
         }
         zip_path = Path(zip_path)
-        zip_path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = zip_path.with_name(f".{zip_path.name}.tmp")
-        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
-            zf.writestr("manifest.json", json.dumps(manifest, ensure_ascii=False, indent=1))
-            for name, data in files.items():
-                zf.writestr(name, data)
-        os.replace(tmp, zip_path)
+        try:  # durable: a temporary zip beside it, fsynced, renamed into place, folder fsynced
+            with durable_file(zip_path) as fh, zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+                zf.writestr("manifest.json", json.dumps(manifest, ensure_ascii=False, indent=1))
+                for name, data in files.items():
+                    zf.writestr(name, data)
+        except OSError as exc:
+            raise StorageError(f"{zip_path}: not exported ({_os_problem(exc)})") from None
         return zip_path
 
     def import_package(self, zip_path: str | Path) -> Story:
@@ -468,26 +672,38 @@ class ProfileStore:
 
         A story whose id already exists on this device is imported as a copy with a new id,
         so an import never overwrites a child's work.
+
+        Order, so that a crash or power cut at any point leaves either no story or the
+        story with all its assets: the assets are written into a ``.import-*`` staging
+        folder, each file and the folder fsynced, the folder renamed into place and the
+        assets folder fsynced, and only then is the story row committed. A crash before
+        the commit leaves an asset folder no story refers to (harmless; a later import of
+        the same package replaces it) or a staging folder (removed when the store opens).
         """
         story, assets = read_package(zip_path)
         if self.has_story(story.id):
             story.id = new_id()
-        staging = Path(tempfile.mkdtemp(prefix=".import-", dir=self._ensure_assets_dir()))
+        final = self._story_assets(story.id)
+        staging: Path | None = None
         try:
-            for name, data in assets.items():
-                _atomic_write(staging / name, data)
-            self.save_story(story)
-            final = self._story_assets(story.id)
+            remove_tree(final)  # no story has this id: an orphan from an earlier import cut short
             if assets:
-                shutil.rmtree(final, ignore_errors=True)
-                os.replace(staging, final)
+                staging = Path(tempfile.mkdtemp(prefix=".import-", dir=self._ensure_assets_dir()))
+                for name, data in assets.items():
+                    (staging / name).write_bytes(data)
+                durable_tree(staging)
+                durable_move(staging, final)
+                staging = None
+        except OSError as exc:
+            raise StorageError(f"{zip_path}: not imported ({_os_problem(exc)})") from None
         finally:
-            shutil.rmtree(staging, ignore_errors=True)
+            if staging is not None:
+                shutil.rmtree(staging, ignore_errors=True)
+        self.save_story(story)
         return story
 
     def _ensure_assets_dir(self) -> Path:
-        self.assets_dir.mkdir(parents=True, exist_ok=True)
-        return self.assets_dir
+        return make_dirs(self.assets_dir)
 
 
 #: What a damaged zip can raise while opening or inflating an entry (found by the package
@@ -580,6 +796,10 @@ def read_package(zip_path: str | Path) -> tuple[Story, dict[str, bytes]]:
     if manifest.get("story_id") != story.id:
         raise fail("manifest story_id does not match story.json")
     assets = {name.split("/", 1)[1]: data for name, data in contents.items()}
+    try:
+        check_package_narrations(story, assets, where)
+    except NarrationError as exc:
+        raise StorageError(str(exc)) from None
     return story, assets
 
 
@@ -590,4 +810,5 @@ def default_profile_path() -> Path:
 
 
 __all__ = ["ProfileStore", "StorageError", "StorySummary", "Group", "read_package", "default_profile_path",
-           "SCHEMA_VERSION", "MIGRATIONS", "APPLICATION_ID"]
+           "SCHEMA_VERSION", "MIGRATIONS", "APPLICATION_ID", "PinCheck", "pin_delay_after", "valid_pin",
+           "RECOVERY_CODE_DIGITS"]

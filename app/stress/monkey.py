@@ -15,6 +15,15 @@ Checked:
 * **lost stories**: every ``save_story``/``delete_story`` the app makes is recorded;
   at the end the profile is reopened and every story must equal its last save, and
   deleted ones must be gone.
+
+With ``teacher=True`` the monkey works **behind the teacher PIN**: the profile has a PIN,
+and the monkey gets in the way a teacher does, by tapping the PIN on the real pad (again
+whenever its taps have left teacher mode), so it spends its time on the teacher screens
+(sessions, calibration, exports, import picker, present all) and on the PIN screen's
+other modes. The PIN delays run on a clock that jumps an hour before each of the
+teacher's unlocks (the monkey's own wrong taps would otherwise lock the pad), and videos
+are exported in 2-D (the 3-D child process is tested elsewhere). ``unlocks`` counts the
+PIN entries that reached the teacher screen; ``teacher_actions`` the actions taken there.
 """
 from __future__ import annotations
 
@@ -67,8 +76,9 @@ def _run_with_bar(cmd: list[str], env: dict, seconds: float, timeout: float, pro
 
 
 def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_s: float = 120.0,
-               progress: bool = False) -> dict:
-    """Run the monkey for ``seconds`` in a subprocess; returns its summary."""
+               progress: bool = False, teacher: bool = False) -> dict:
+    """Run the monkey for ``seconds`` in a subprocess (``teacher``: behind the teacher PIN);
+    returns its summary."""
     work.mkdir(parents=True, exist_ok=True)
     db = work / "monkey.db"
     out = work / "out"
@@ -76,7 +86,8 @@ def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_
         Path(f"{db}{suffix}").unlink(missing_ok=True)
     env = dict(os.environ, KIVY_NO_ARGS="1", SDL_VIDEODRIVER="offscreen",
                KIVY_HOME=str(work / "kivy_home"))
-    cmd = [sys.executable, "-m", "app.stress.monkey", str(db), str(out), str(seconds), str(seed)]
+    cmd = [sys.executable, "-m", "app.stress.monkey", str(db), str(out), str(seconds), str(seed),
+           "teacher" if teacher else "child"]
     try:
         rc, tail = _run_with_bar(cmd, env, seconds, seconds + timeout_margin_s, progress)
     except subprocess.TimeoutExpired:
@@ -98,7 +109,12 @@ def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_
 # ============================================================================ inside the app process
 
 
-def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no cover - runs in a subprocess
+#: The PIN the monkey's "teacher" types.
+TEACHER_PIN = "2468"
+
+
+def _main(db: Path, out: Path, seconds: float, seed: int,
+          teacher: bool = False) -> int:  # pragma: no cover - runs in a subprocess
     prepare_kivy_env(headless=True, width=1280, height=800)
     # deferred: Kivy reads its environment at import, so every Kivy import (and the app,
     # which imports Kivy) comes after prepare_kivy_env(); each line below says so.
@@ -115,7 +131,8 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
     rng = random.Random(seed)
     report: dict = {"seconds": seconds, "seed": seed, "actions": 0, "taps": 0, "strokes": 0, "backs": 0,
                     "crashes": 0, "crash_examples": [], "stuck": 0, "stuck_examples": [], "hangs": 0,
-                    "screens_seen": {}, "saves": 0, "deletes": 0, "stories_lost": 0, "popups_seen": 0}
+                    "screens_seen": {}, "saves": 0, "deletes": 0, "stories_lost": 0, "popups_seen": 0,
+                    "teacher": teacher, "unlocks": 0, "unlock_tries": 0, "teacher_actions": 0, "long_presses": 0}
     saved: dict[str, dict | None] = {}  # last saved body per story id (None: deleted)
     heartbeat = [time.monotonic()]
     finished = threading.Event()
@@ -165,9 +182,15 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
             touch.touch_move(x, y)
         touch.touch_up()
 
+    pin_clock = [time.time()]  # teacher mode: jumps an hour before each unlock
+
     class MonkeyApp(StoryBeamApp):
         def build(self):
+            if teacher:
+                self.video_view = "2d"  # teacher exports: the 2-D video (no 3-D child process)
             root = super().build()
+            if teacher:
+                self.store.pin_clock = lambda: pin_clock[0]
             real_save, real_delete = self.store.save_story, self.store.delete_story
 
             def save_story(story):
@@ -186,8 +209,41 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
         def on_start(self):
             self._t0 = time.monotonic()
             self._modal_since: dict[int, float] = {}
+            self._plan: list = []  # the teacher's taps in progress (one per action)
+            if teacher:
+                self._plan_unlock()
             Clock.schedule_interval(self._tick, 0)
             Clock.schedule_once(self._act, 0.5)
+
+        def _plan_unlock(self) -> None:
+            """The teacher comes back: home, the teacher button, the PIN on the pad, OK."""
+            def tap_widget(get):
+                def act():
+                    w = get()
+                    if w is not None and w.get_root_window() is not None:
+                        tap_at(*w.to_window(*w.center))
+                return act
+
+            def go_home():
+                pin_clock[0] += 3600.0
+                report["unlock_tries"] += 1
+                self.go_home()
+            pin = lambda: self.sm.get_screen("pin")  # noqa: E731
+            key = lambda k: tap_widget(lambda: getattr(pin(), "keys", {}).get(k))  # noqa: E731
+            self._plan = [go_home, tap_widget(lambda: getattr(self.sm.get_screen("home"), "teacher_button", None)),
+                          key("clear"), *(key(k) for k in TEACHER_PIN), key("ok"), self._count_unlock]
+
+        def _long_press(self) -> None:
+            """A finger held down a little longer than the projector screen's long press."""
+            w, h = Window.size
+            touch = UnitTestTouch(rng.uniform(0, w), rng.uniform(0, h))
+            touch.touch_down()
+            hold = getattr(self.sm.current_screen, "LONG_PRESS_S", 1.0) + 0.3
+            Clock.schedule_once(lambda _dt: touch.touch_up(), hold)
+            report["long_presses"] += 1
+
+        def _count_unlock(self) -> None:
+            report["unlocks"] += self.sm.current == "teacher"
 
         def _tick(self, _dt):
             heartbeat[0] = time.monotonic()
@@ -208,7 +264,8 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
                     report["stuck_examples"].append(f"a popup stayed open 20 s on {self.sm.current}")
                     p.dismiss()
             self._modal_since = {k: v for k, v in self._modal_since.items() if k in alive}
-            if self.sm.current != "home" and not popups and not buttons(self.sm.current_screen):
+            full_screen = getattr(self.sm.current_screen, "projector_mode", False)  # no buttons by design
+            if self.sm.current != "home" and not popups and not full_screen and not buttons(self.sm.current_screen):
                 report["stuck"] += 1
                 report["stuck_examples"].append(f"screen {self.sm.current} has no button")
                 self.go_home()
@@ -221,6 +278,22 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
             report["screens_seen"][screen] = report["screens_seen"].get(screen, 0) + 1
             try:
                 self._check_stuck()
+                if teacher and not self._plan and not self._popups() and (
+                        screen == "home" or (screen in ("editor", "play", "projector", "pin")
+                                             and rng.random() < 0.1)):
+                    self._plan_unlock()  # the monkey left teacher mode: the teacher types the PIN again
+                if self._plan:
+                    self._plan.pop(0)()
+                    report["actions"] += 1
+                    Clock.schedule_once(self._act, ACTION_INTERVAL_S)
+                    return
+                if screen in ("teacher", "calibration"):
+                    report["teacher_actions"] += 1
+                if getattr(self.sm.current_screen, "projector_mode", False) and rng.random() < 0.2:
+                    self._long_press()  # the projector's full screen has no button: a held finger leaves it
+                    report["actions"] += 1
+                    Clock.schedule_once(self._act, ACTION_INTERVAL_S)
+                    return
                 r = rng.random()
                 popups = self._popups()
                 if r < 0.60:
@@ -248,6 +321,9 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
             Clock.schedule_once(self._act, ACTION_INTERVAL_S)
 
     threading.Thread(target=watchdog, daemon=True).start()
+    if teacher:  # a profile whose teacher PIN was set before
+        with ProfileStore(db) as store:
+            store.set_pin(TEACHER_PIN)
     # Start in the editor of the demo story (as a teacher's demo would), so even a short run
     # edits and autosaves; the monkey reaches home and every other screen from there.
     app = MonkeyApp(db, lang=rng.choice(["en", "ja"]), demo=True, catalog=MotionCatalog(build_index=False))
@@ -278,4 +354,5 @@ def _main(db: Path, out: Path, seconds: float, seed: int) -> int:  # pragma: no 
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(_main(Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4])))
+    sys.exit(_main(Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4]),
+                   len(sys.argv) > 5 and sys.argv[5] == "teacher"))

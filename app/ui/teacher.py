@@ -1,4 +1,5 @@
-"""Teacher mode behind a PIN: class sessions and group rosters, calibration wizard,
+"""Teacher mode behind a PIN (a grown-up question before the first one, slowed-down
+wrong tries, a recovery code): class sessions and group rosters, calibration wizard,
 presenting every story, exports (videos, story packages, activity-log CSV).
 
 Teacher screens may use text entry (session and group names); the children's flow never
@@ -6,6 +7,8 @@ does."""
 from __future__ import annotations
 
 import logging
+import math
+import random
 import threading
 from pathlib import Path
 
@@ -20,9 +23,12 @@ from kivy.uix.scrollview import ScrollView
 from kivy.uix.textinput import TextInput
 from kivy.uix.widget import Widget
 
+from app.scene.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice
 from app.services import CalibrationWizard
-from app.story import StorageError
+from app.story import RECOVERY_CODE_DIGITS, StorageError, valid_pin
 from app.ui.import_picker import ImportPicker
+from app.ui.narration import RECORDING_SETTING, recording_allowed
+from app.ui.strings import tr
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
 
@@ -36,28 +42,145 @@ _STEP_TEXT = {
 }
 
 
+#: Number words for the grown-up question (teacher-facing Japanese may use kanji).
+_NUMBER_WORDS = {
+    "en": {3: "three", 4: "four", 5: "five", 6: "six", 7: "seven", 8: "eight", 9: "nine", 12: "twelve",
+           13: "thirteen", 14: "fourteen", 15: "fifteen", 16: "sixteen", 17: "seventeen", 18: "eighteen",
+           19: "nineteen"},
+    "ja": {3: "三", 4: "四", 5: "五", 6: "六", 7: "七", 8: "八", 9: "九", 12: "十二", 13: "十三", 14: "十四",
+           15: "十五", 16: "十六", 17: "十七", 18: "十八", 19: "十九"},
+}
+#: Digits the pad takes in each mode.
+_MAX_DIGITS = {"gate": 3, "new1": 8, "new2": 8, "enter": 8, "recover": RECOVERY_CODE_DIGITS}
+
+
+class GrownUpQuestion:
+    """The parental gate before the first PIN: a product of a teen number and a digit,
+    written in words ("seventeen times eight"), typed on the pad.
+
+    Why a 5-8-year-old cannot pass it by tapping: the answer (36-171) must be typed
+    exactly, a wrong answer brings a new question, and random taps of three digits and OK
+    hit the answer with probability at most 1/1000 per try; reading the words and
+    multiplying a two-digit number is beyond the first grades (Japanese children learn
+    the one-digit tables, 九九, in grade 2)."""
+
+    def __init__(self, rng: random.Random | None = None):
+        self.rng = rng or random.SystemRandom()
+        self.next()
+
+    def next(self) -> None:
+        self.a, self.b = self.rng.randint(12, 19), self.rng.randint(3, 9)
+
+    def text(self, lang: str) -> str:
+        words = _NUMBER_WORDS.get(lang, _NUMBER_WORDS["en"])
+        return tr("gate_question", lang, a=words[self.a], b=words[self.b])
+
+    def check(self, answer: str) -> bool:
+        return answer.isdecimal() and int(answer) == self.a * self.b
+
+
+def _wait_text(seconds: float) -> str:
+    s = math.ceil(seconds)
+    return f"{s // 60}:{s % 60:02d}"
+
+
 class PinScreen(Screen):
-    """A big number pad. The first time, the entered PIN becomes the teacher PIN."""
+    """The teacher's way in, on a big number pad.
+
+    Modes: ``gate`` (a fresh install: the grown-up question first), ``new1``/``new2``
+    (the new PIN, typed twice), ``code`` (the recovery code, shown once), ``enter`` (the
+    PIN; wrong ones slowed down by :meth:`ProfileStore.try_pin`), ``recover`` (the
+    recovery code instead of a forgotten PIN, then ``new1``/``new2``; stories are kept).
+    Leaving the screen starts over, so no step can be skipped."""
+
+    #: OK presses so far (what the UI tests wait on after a tap of OK).
+    submits = 0
 
     def on_pre_enter(self, *args):
-        self.entered = ""
+        self._start_over()
         self.refresh()
+        Clock.unschedule(self._tick)
+        Clock.schedule_interval(self._tick, 1.0)
+
+    def _start_over(self) -> None:
+        app = App.get_running_app()
+        self.question = GrownUpQuestion()
+        self.recovery_used: str | None = None  # the code that unlocked a reset
+        self.first_pin = ""
+        self.shown_code = ""
+        self.mode = "enter" if app.store.has_pin() else "gate"
+        self.entered = ""
+        self.note = ""
+
+    def on_leave(self, *args):
+        Clock.unschedule(self._tick)
+
+    def _tick(self, _dt) -> None:
+        """Count a running wait down on screen."""
+        if getattr(self, "mode", None) not in ("enter", "recover"):
+            return
+        store = App.get_running_app().store
+        if store is None:
+            return
+        wait = store.pin_wait() if self.mode == "enter" else store.recovery_wait()
+        if wait > 0:
+            self.message.text = App.get_running_app().t("pin_wait", time=_wait_text(wait))
+            self._counting = True
+        elif getattr(self, "_counting", False):
+            self.message.text = self.note = ""
+            self._counting = False
+
+    def _title(self) -> str:
+        app = App.get_running_app()
+        t = app.t
+        return {"gate": t("gate_title"), "new1": t("new_pin"),
+                "new2": t("repeat_pin"), "code": t("recovery_title"), "enter": t("enter_pin"),
+                "recover": t("enter_recovery")}[self.mode]
 
     def refresh(self) -> None:
         app = App.get_running_app()
         t = app.t
+        if not hasattr(self, "mode"):  # the app's first screen is refreshed without on_pre_enter
+            self._start_over()
         self.clear_widgets()
         root = filled(BoxLayout(orientation="vertical", padding=dp(24), spacing=dp(10)), (0.9, 0.93, 0.98, 1))
-        bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP))
-        bar.add_widget(IconButton("home", t("back"), on_press=app.go_home, size_hint_x=None, width=dp(100)))
-        bar.add_widget(big_label(t("enter_pin") if app.store.has_pin() else t("new_pin"), 26, size_hint_y=1))
+        bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(10))
+        if self.mode != "code":  # the code is shown once: the only way on is "I wrote it down"
+            bar.add_widget(IconButton("home", t("back"), on_press=app.go_home, size_hint_x=None, width=dp(100)))
+        self.title_label = big_label(self._title(), 24, size_hint_y=1)
+        bar.add_widget(self.title_label)
+        self.forgot_button = None
+        if self.mode == "enter":
+            self.forgot_button = IconButton("teacher", t("forgot_pin"), on_press=self.forgot, size_hint_x=None,
+                                            width=dp(150), font_size=dp(14))
+            bar.add_widget(self.forgot_button)
         root.add_widget(bar)
-        self.display = big_label("", 36)
-        self.message = big_label("", 18, colour=(0.8, 0.1, 0.1, 1))
+        self.question_label = None
+        if self.mode == "gate":
+            self.question_label = big_label(self.question.text(app.lang), 32, colour=(0.1, 0.2, 0.6, 1))
+            root.add_widget(self.question_label)
+        self.display = big_label(self._shown(), 36)
+        self.message = big_label(self.note, 18, colour=(0.8, 0.1, 0.1, 1), halign="center", valign="middle",
+                                 height=dp(70))
+        self.message.bind(width=lambda lbl, w: setattr(lbl, "text_size", (w, None)))
         root.add_widget(self.display)
         root.add_widget(self.message)
-        pad = GridLayout(cols=3, spacing=dp(10), size_hint=(None, 1), width=dp(3 * 110))
         self.keys = {}
+        self.done_button = None
+        if self.mode == "code":
+            self.message.color = (0.1, 0.1, 0.2, 1)
+            self.message.text = t("recovery_note")
+            self.done_button = IconButton("play", t("recovery_done"), on_press=self.code_noted, size_hint=(None, None),
+                                          width=dp(320), height=dp(96), font_size=dp(20),
+                                          background=[0.75, 0.95, 0.75, 1])
+            centre = BoxLayout()
+            centre.add_widget(Widget())
+            centre.add_widget(self.done_button)
+            centre.add_widget(Widget())
+            root.add_widget(centre)
+            self.add_widget(root)
+            return
+        pad = GridLayout(cols=3, spacing=dp(10), size_hint=(None, 1), width=dp(3 * 110))
         for key in ("1", "2", "3", "4", "5", "6", "7", "8", "9", "clear", "0", "ok"):
             label = t(key) if key in ("clear", "ok") else key
             icon = {"clear": "delete", "ok": "play"}.get(key, "")
@@ -71,29 +194,91 @@ class PinScreen(Screen):
         root.add_widget(centre)
         self.add_widget(root)
 
+    def _shown(self) -> str:
+        if self.mode == "code":
+            c = self.shown_code
+            return " ".join(c[i:i + 4] for i in range(0, len(c), 4))
+        if self.mode in ("gate", "recover"):  # the grown-up sees what they typed
+            return self.entered
+        return "●" * len(self.entered)
+
+    def _switch(self, mode: str, note: str = "") -> None:
+        self.mode, self.entered, self.note = mode, "", note
+        self.refresh()
+
     def press(self, key: str) -> None:
-        app = App.get_running_app()
         if key == "clear":
             self.entered = ""
         elif key == "ok":
-            if not app.store.has_pin():
-                try:
-                    app.store.set_pin(self.entered)
-                except StorageError as exc:
-                    self.message.text = str(exc)
-                    self.entered = ""
-                    self.display.text = ""
-                    return
-            if app.store.verify_pin(self.entered):
-                app.teacher_unlocked = True
-                app.store.log_activity("teacher mode")
-                app.go("teacher")
-                return
-            self.message.text = app.t("wrong_pin")
-            self.entered = ""
-        elif len(self.entered) < 8:
+            self.submit()
+            return
+        elif len(self.entered) < _MAX_DIGITS.get(self.mode, 8):
             self.entered += key
-        self.display.text = "●" * len(self.entered)
+        self.display.text = self._shown()
+
+    def submit(self) -> None:
+        app = App.get_running_app()
+        self.submits += 1
+        t, store, entered = app.t, app.store, self.entered
+        try:
+            if self.mode == "gate":
+                if self.question.check(entered):
+                    return self._switch("new1")
+                self.question.next()  # a new question after every wrong answer
+                return self._switch("gate", t("gate_wrong"))
+            if self.mode == "new1":
+                if not valid_pin(entered):
+                    return self._switch("new1", t("pin_digits"))
+                self.first_pin = entered
+                return self._switch("new2")
+            if self.mode == "new2":
+                if entered != self.first_pin:
+                    self.first_pin = ""
+                    return self._switch("new1", t("pin_mismatch"))
+                if self.recovery_used is not None:
+                    self.shown_code = store.reset_pin(self.recovery_used, entered)
+                    store.log_activity("teacher PIN reset")
+                else:
+                    self.shown_code = store.set_pin(entered)
+                self.first_pin = ""
+                return self._switch("code")
+            if self.mode == "recover":
+                check = store.try_recovery_code(entered)
+                if check.ok:
+                    self.recovery_used = entered
+                    return self._switch("new1")
+                return self._switch("recover", self._refusal(check, "wrong_code"))
+            check = store.try_pin(entered)
+            if check.ok and not store.has_recovery_code():  # a PIN from before recovery codes: make one now
+                self.shown_code = store.new_recovery_code()
+                return self._switch("code")
+            if check.ok:
+                return self.unlock()
+            self._switch("enter", self._refusal(check, "wrong_pin"))
+        except StorageError as exc:  # a damaged PIN record, a full disk: say so; "forgot PIN" stays offered
+            self._switch(self.mode, str(exc))
+
+    def _refusal(self, check, wrong_key: str) -> str:
+        app = App.get_running_app()
+        if check.refused:
+            return app.t("pin_wait", time=_wait_text(check.wait_s))
+        text = app.t(wrong_key)
+        if check.wait_s > 0:
+            text += "\n" + app.t("pin_wait", time=_wait_text(check.wait_s))
+        return text
+
+    def forgot(self) -> None:
+        self._switch("recover")
+
+    def code_noted(self) -> None:
+        self.shown_code = ""  # shown once: gone from the screen and never stored in clear
+        self.unlock()
+
+    def unlock(self) -> None:
+        app = App.get_running_app()
+        app.teacher_unlocked = True
+        app.store.log_activity("teacher mode")
+        app.go("teacher")
 
 
 class TeacherScreen(Screen):
@@ -165,8 +350,19 @@ class TeacherScreen(Screen):
         self.action_buttons["activity_log"] = IconButton(
             "teacher", f"{t('activity_log')}: {t('on') if log_on else t('off')}", on_press=self.toggle_log,
             selected=log_on, font_size=dp(13))
+        voice_on = recording_allowed(store)  # the class's voice recording switch (app.ui.narration)
+        self.action_buttons["recording"] = IconButton(
+            "teacher", f"{t('recording_setting')}: {t('on') if voice_on else t('off')}",
+            on_press=self.toggle_recording, selected=voice_on, font_size=dp(13))
         for button in self.action_buttons.values():
             right.add_widget(button)
+        # the rig's camera: a device number, or a recording (video file, folder of images)
+        self.camera_input = TextInput(text=store.get_setting(CAMERA_SETTING) or DEFAULT_CAMERA,
+                                      hint_text=t("rig_camera_hint"), multiline=False, font_size=dp(16))
+        right.add_widget(self.camera_input)
+        self.action_buttons["rig_camera"] = IconButton("projector", t("rig_camera"), on_press=self.save_camera,
+                                                       font_size=dp(13))
+        right.add_widget(self.action_buttons["rig_camera"])
         self.status = Label(text="", color=(0.1, 0.3, 0.1, 1), font_size=dp(14), halign="left", valign="top")
         self.status.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
         right.add_widget(self.status)
@@ -206,6 +402,22 @@ class TeacherScreen(Screen):
     def toggle_log(self) -> None:
         store = App.get_running_app().store
         store.set_activity_logging(not store.activity_logging)
+        self.refresh()
+
+    def save_camera(self) -> None:
+        """Save the rig camera choice (checked first: a recording must open); the projector
+        screen uses it the next time the app starts its stage."""
+        app = App.get_running_app()
+        try:
+            choice = check_camera_choice(self.camera_input.text)
+            app.store.set_setting(CAMERA_SETTING, choice)
+        except (StoryBeamError, StorageError) as exc:
+            return self._report(str(exc))
+        self._report(app.t("rig_camera_saved", source=choice))
+
+    def toggle_recording(self) -> None:
+        store = App.get_running_app().store
+        store.set_setting(RECORDING_SETTING, "off" if recording_allowed(store) else "on")
         self.refresh()
 
     def export_log(self) -> None:

@@ -92,7 +92,7 @@ if HAVE_NUMBA:
     # idle machine; the cause was not investigated). Keep the copies.
 
     @numba.njit(cache=True, nogil=True)
-    def _nb_dtw_table(a, b, table, lo, hi):  # pragma: no cover - compiled
+    def _nb_dtw_table(a, b, table, lo, hi):
         nx, ny = a.shape[0], b.shape[0]
         inf = np.inf
         prev = np.full(ny, inf)
@@ -118,7 +118,7 @@ if HAVE_NUMBA:
         return prev[ny - 1]
 
     @numba.njit(cache=True, nogil=True)
-    def _nb_dtw_split(a_lo, a_hi, b_lo, b_hi, low, high, lo, hi):  # pragma: no cover
+    def _nb_dtw_split(a_lo, a_hi, b_lo, b_hi, low, high, lo, hi):
         nx, ny = a_lo.shape[0], b_lo.shape[0]
         inf = np.inf
         prev = np.full(ny, inf)
@@ -146,7 +146,7 @@ if HAVE_NUMBA:
         return prev[ny - 1]
 
     @numba.njit(cache=True, nogil=True, fastmath=False)
-    def _nb_dtw_euclid(x, y, lo, hi):  # pragma: no cover - compiled
+    def _nb_dtw_euclid(x, y, lo, hi):
         nx, ny, d = x.shape[0], y.shape[0], x.shape[1]
         inf = np.inf
         prev = np.full(ny, inf)

@@ -102,7 +102,7 @@ def range_lower_bound(a: np.ndarray, b: np.ndarray, table: DiffTable) -> float:
 if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
-    def range_cover_both(R, q_rows, q_heights, c_codes, c_widths, before, limit, norm, rest2, MX, MY, CP):  # pragma: no cover
+    def range_cover_both(R, q_rows, q_heights, c_codes, c_widths, before, limit, norm, rest2, MX, MY, CP):
         """The row and the column range-cover bounds, each sharpened by the other, in one
         backward sweep over the (query run × candidate run) grid; the block costs are read
         straight from the query's table rows: ``c[x, e] = R[q_rows[x], c_codes[e]]``.

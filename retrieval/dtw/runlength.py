@@ -56,7 +56,7 @@ def rle_is_exact(costs: np.ndarray, max_path_cells: int) -> bool:
 if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True, inline="always")
-    def _block(top, left, h, w, c, bottom_out, right_out, buf_a, buf_b, dq):  # pragma: no cover
+    def _block(top, left, h, w, c, bottom_out, right_out, buf_a, buf_b, dq):
         """One constant-cost block. top[0..w] = DP row above (top[0] is the corner),
         left[1..h] = DP column to the left. Writes bottom_out[1..w], right_out[1..h]."""
         inf = np.inf
@@ -190,14 +190,14 @@ if HAVE_NUMBA:
                     right_out[s] = x
 
     @numba.njit(cache=True, nogil=True, inline="always")
-    def diff_cost(u, v, F, absdiff, shift, mask):  # pragma: no cover
+    def diff_cost(u, v, F, absdiff, shift, mask):
         """D[u, v] through a :class:`~retrieval.codes.tables.DiffTable` (float64)."""
         d = np.int64(absdiff[u & mask, v & mask]) | (np.int64(absdiff[u >> shift, v >> shift]) << shift)
         return np.float64(F[d])
 
     @numba.njit(cache=True, nogil=True)
     def rle_dtw_raw(a_val, a_len, b_val, b_len, F, absdiff, shift, mask, rest, rest_col, limit, norm,
-                    row_prev, row_next, left, right, buf_a, buf_b, dq):  # pragma: no cover
+                    row_prev, row_next, left, right, buf_a, buf_b, dq):
         """Raw DTW over runs. The block cost is ``D[a_val[p], b_val[q]]`` through the
         difference table (F, absdiff, shift, mask); ``rest[p, q]`` a lower bound
         of the cost of what follows any cell of block (p, q) on a path to the end (e.g. the

@@ -43,7 +43,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
     from retrieval.dtw.runlength import diff_cost
 
     @numba.njit(cache=True, nogil=True)
-    def _nb_subsequence(q, take, F, absdiff, shift, mask):  # pragma: no cover
+    def _nb_subsequence(q, take, F, absdiff, shift, mask):
         nx, ny = q.shape[0], take.shape[0]
         prev = np.empty(ny)
         cur = np.empty(ny)

@@ -331,9 +331,10 @@ def teacher_steps(app):
     yield touching(lambda: tap(app.sm.get_screen("home").teacher_button), until=lambda: app.sm.current == "pin")
     yield lambda: result.update(after_tap=app.sm.current)
     pin = lambda: app.sm.get_screen("pin")  # noqa: E731
-    for key in "2468":
-        yield touching(lambda key=key: tap(pin().keys[key]), changes=lambda: pin().entered)
-    yield touching(lambda: tap(pin().keys["ok"]), until=lambda: app.sm.current == "teacher")
+    yield from type_on_pad(app, grown_up_answer(pin().question_label.text))  # the grown-up question first
+    yield from type_on_pad(app, "2468")
+    yield from type_on_pad(app, "2468")  # typed twice
+    yield touching(lambda: tap(pin().done_button), until=lambda: app.sm.current == "teacher")  # recovery code noted
     yield lambda: result.update(after_first_pin=app.sm.current, pin_set=app.store.has_pin())
     yield lambda: shot("teacher")
     yield touching(lambda: tap(app.sm.get_screen("teacher").calibration_button),
@@ -503,6 +504,117 @@ def import_steps(app):
     yield finish
 
 
+_WORDS = {"three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8, "nine": 9, "twelve": 12,
+          "thirteen": 13, "fourteen": 14, "fifteen": 15, "sixteen": 16, "seventeen": 17, "eighteen": 18,
+          "nineteen": 19}
+
+
+def grown_up_answer(question: str) -> str:
+    """What a grown-up types for the English question shown ("seventeen times eight")."""
+    a, _times, b = question.split()
+    return str(_WORDS[a] * _WORDS[b])
+
+
+def type_on_pad(app, digits: str, ok: bool = True):
+    """Steps that tap ``digits`` on the PIN pad, then OK (waiting for the mode or the
+    message to change)."""
+    pin = lambda: app.sm.get_screen("pin")  # noqa: E731
+    yield touching(lambda: tap(pin().keys["clear"]), until=lambda: pin().entered == "")
+    for key in digits:
+        yield touching(lambda key=key: tap(pin().keys[key]), changes=lambda: pin().entered)
+    if ok:
+        yield touching(lambda: tap(pin().keys["ok"]), changes=lambda: (pin().submits, app.sm.current))
+
+
+def gate_steps(app):
+    """A fresh install: taps alone do not set a PIN; the grown-up question, the PIN twice
+    (a mismatch first), the recovery code shown once; then wrong PINs slowed down."""
+    import random
+    pin = lambda: app.sm.get_screen("pin")  # noqa: E731
+    home = lambda: app.sm.get_screen("home")  # noqa: E731
+    yield touching(lambda: tap(home().teacher_button), until=lambda: app.sm.current == "pin")
+    yield lambda: result.update(first_mode=pin().mode, first_question=pin().question_label.text)
+
+    def seeded_questions():  # the child's taps below are then the same every run
+        pin().question.rng = random.Random(3)
+        pin().question.next()
+        pin().refresh()
+    yield seeded_questions
+    yield lambda: shot("gate")
+    # a child's taps: OK at once, then 80 random keys of the pad (seeded)
+    yield touching(lambda: tap(pin().keys["ok"]), changes=lambda: pin().submits)
+    yield lambda: result.update(after_empty_ok=[pin().mode, pin().note, pin().question_label.text])
+    rng = random.Random(7)
+    keys = [rng.choice("0123456789" + "o" * 3 + "c") for _ in range(80)]
+    for k in keys:
+        key = {"o": "ok", "c": "clear"}.get(k, k)
+        yield lambda key=key: tap(pin().keys[key])
+    yield lambda: result.update(after_random=[pin().mode, app.store.has_pin(), app.sm.current])
+    # the grown-up answers from the words on the screen
+    yield lambda: result.update(question=pin().question_label.text)
+    yield from type_on_pad(app, grown_up_answer(pin().question_label.text))
+    yield lambda: result.update(after_answer=pin().mode)
+    yield from type_on_pad(app, "2468")
+    yield lambda: result.update(after_first=pin().mode)
+    yield from type_on_pad(app, "2469")
+    yield lambda: result.update(after_mismatch=[pin().mode, pin().note, app.store.has_pin()])
+    yield from type_on_pad(app, "2468")
+    yield from type_on_pad(app, "2468")
+    yield lambda: result.update(code_mode=pin().mode, code_shown=pin().display.text, pin_set=app.store.has_pin(),
+                                code_button=[pin().done_button.width, pin().done_button.height])
+    yield lambda: shot("recovery_code")
+    yield touching(lambda: tap(pin().done_button), until=lambda: app.sm.current == "teacher")
+    yield lambda: result.update(after_code=app.sm.current)
+    # wrong PINs, on a clock the test moves (no real waiting)
+    clock = [1_000_000.0]
+    yield lambda: setattr(app.store, "pin_clock", lambda: clock[0])
+    yield lambda: app.sm.get_screen("teacher").leave()
+    yield touching(lambda: tap(home().teacher_button), until=lambda: app.sm.current == "pin")
+    yield lambda: result.update(enter_mode=pin().mode, pad_sizes=[[b.width, b.height] for b in pin().keys.values()])
+    notes: list = []
+    for _ in range(6):
+        yield from type_on_pad(app, "1111")
+        yield lambda: notes.append([pin().note, app.sm.current])
+    yield lambda: result.update(wrong_notes=notes)
+    yield from type_on_pad(app, "2468")  # the right PIN, during the wait
+    yield lambda: result.update(right_during_wait=[pin().note, app.sm.current])
+    yield lambda: clock.__setitem__(0, clock[0] + 31)
+    yield from type_on_pad(app, "2468")
+    yield lambda: result.update(right_after_wait=app.sm.current)
+    yield finish
+
+
+def recover_steps(app):
+    """A forgotten PIN: "Forgot PIN?", a wrong code, the code, a new PIN twice, the next code."""
+    pin = lambda: app.sm.get_screen("pin")  # noqa: E731
+    setup = json.loads((OUT / "setup.json").read_text())
+    yield touching(lambda: tap(app.sm.get_screen("home").teacher_button), until=lambda: app.sm.current == "pin")
+    yield touching(lambda: tap(pin().forgot_button), until=lambda: pin().mode == "recover")
+    yield lambda: result.update(recover_title=pin().title_label.text)
+    wrong = "9" * 12 if setup["code"] != "9" * 12 else "8" * 12
+    yield from type_on_pad(app, wrong)
+    yield lambda: result.update(after_wrong_code=[pin().mode, pin().note])
+    yield from type_on_pad(app, setup["code"])
+    yield lambda: result.update(after_code=pin().mode)
+    yield from type_on_pad(app, "9753")
+    yield from type_on_pad(app, "9753")
+    yield lambda: result.update(new_code=pin().display.text.replace(" ", ""), code_mode=pin().mode)
+    yield touching(lambda: tap(pin().done_button), until=lambda: app.sm.current == "teacher")
+    yield lambda: result.update(after_reset=app.sm.current)
+    yield finish
+
+
+def legacy_pin_steps(app):
+    """A PIN set before recovery codes existed: the right PIN first shows a new code once."""
+    pin = lambda: app.sm.get_screen("pin")  # noqa: E731
+    yield touching(lambda: tap(app.sm.get_screen("home").teacher_button), until=lambda: app.sm.current == "pin")
+    yield from type_on_pad(app, "1357")
+    yield lambda: result.update(legacy_mode=pin().mode, legacy_code=pin().display.text.replace(" ", ""))
+    yield touching(lambda: tap(pin().done_button), until=lambda: app.sm.current == "teacher")
+    yield lambda: result.update(after_legacy=app.sm.current)
+    yield finish
+
+
 def finish():
     (OUT / "result.json").write_text(json.dumps(result))
     app_ref[0].stop()
@@ -510,7 +622,15 @@ def finish():
 
 SCENARIOS = {"touch_story": touch_story_steps, "editor": editor_steps, "language": language_steps,
              "teacher": teacher_steps, "play3d": play3d_steps, "projector3d": projector3d_steps,
-             "thumbs": thumbs_steps, "import": import_steps}
+             "thumbs": thumbs_steps, "import": import_steps, "teacher_gate": gate_steps,
+             "teacher_recover": recover_steps, "teacher_legacy": legacy_pin_steps}
+from narration_scenarios import SCENARIOS as NARRATION_SCENARIOS  # noqa: E402  (issue 14: voice, own file)
+
+SCENARIOS.update(NARRATION_SCENARIOS)
+from tablet_scenarios import RENDERED as TABLET_RENDERED  # noqa: E402  (issue 13: the tablet profile, own file)
+from tablet_scenarios import SCENARIOS as TABLET_SCENARIOS  # noqa: E402
+
+SCENARIOS.update(TABLET_SCENARIOS)
 app_ref: list = []
 
 
@@ -616,6 +736,22 @@ if __name__ == "__main__":
         from app.story.storage import ProfileStore
         with ProfileStore(DB) as store:
             store.save_story(demo_story())
+    if SCENARIO == "teacher_legacy":  # a PIN set by an app from before recovery codes
+        import sqlite3
+
+        from app.story.storage import ProfileStore
+        with ProfileStore(DB) as store:
+            store.set_pin("1357")
+        with sqlite3.connect(DB) as conn:
+            conn.execute("DELETE FROM settings WHERE key = 'teacher_recovery'")
+        conn.close()
+    if SCENARIO == "teacher_recover":  # a PIN set before (its recovery code kept) and one story
+        from app.story.demo_story import demo_story
+        from app.story.storage import ProfileStore
+        with ProfileStore(DB) as store:
+            store.save_story(demo_story())
+            code = store.set_pin("1357")
+            (OUT / "setup.json").write_text(json.dumps({"code": code, "story": demo_story().to_dict()}))
     if SCENARIO == "import":  # a valid package and a malformed one in the inbox (made outside the UI)
         import zipfile
 
@@ -632,11 +768,11 @@ if __name__ == "__main__":
             zf.writestr("manifest.json", "{not json")
             zf.writestr("story.json", "{}")
     factory = None
-    if SCENARIO in ("play3d", "projector3d"):
+    if SCENARIO in ("play3d", "projector3d", *TABLET_RENDERED):
         from app.scene import app_renderer_factory
         factory = app_renderer_factory(DB.parent)
     catalog = MotionCatalog(Path(os.environ["STORYBEAM_TEST_MOTIONS"]), build_index=False) \
-        if os.environ.get("STORYBEAM_TEST_MOTIONS") else MotionCatalog(build_index=False)
+        if os.environ.get("STORYBEAM_TEST_MOTIONS") else MotionCatalog(build_index=SCENARIO in TABLET_RENDERED)
     app = DriverApp(DB, lang=lang, demo=demo, catalog=catalog, renderer_factory=factory)
     app_ref.append(app)
     app.run()

@@ -28,6 +28,7 @@ Acclaim dof lists are kept in :class:`AcclaimSkeleton`.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -352,6 +353,12 @@ def load_amc(path: str | Path, skeleton: AcclaimSkeleton | str | Path, fps: floa
     return _amc_to_motion(asf, values, n_frames, degrees, fps, path.stem)
 
 
+#: The number of an AMC file's first frame (Acclaim's files count from 1, some tools from 0);
+#: each next frame's number is one more.
+FIRST_AMC_FRAMES = (1, 0)
+#: A line of one integer (signed too, so "-3" is refused as a frame number, not read as a bone).
+_FRAME_NUMBER = re.compile(r"^[+-]?[0-9]+$")
+
 #: Per bone: (frame indices, (len(frames), n_dofs) values).
 _BoneValues = dict[str, tuple[np.ndarray, np.ndarray]]
 
@@ -369,6 +376,9 @@ def _read_uniform_frames(body: list[str], asf: AcclaimSkeleton) -> tuple[int, _B
         return None
     n = len(body) // period
     if not all(line.strip().isdecimal() for line in body[::period]):
+        return None
+    numbers = [int(line) if len(line.strip()) <= 12 else -1 for line in body[::period]]
+    if numbers[0] not in FIRST_AMC_FRAMES or numbers != list(range(numbers[0], numbers[0] + n)):
         return None
     out: _BoneValues = {}
     frames = np.arange(n)
@@ -397,13 +407,22 @@ def _read_frames_line_by_line(path: Path, lines: list[str], asf: AcclaimSkeleton
     # Per bone: (frame index, line number, value tokens) for every line that names it.
     records: dict[str, list[tuple[int, int, list[str]]]] = {name: [] for name in asf.dofs}
     n_frames = 0
+    first_number = 0
     last_seen: dict[str, int] = {}
     for ln, raw in enumerate(lines, 1):
         s = raw.strip()
         if not s or s[0] in "#:":
             continue
         tokens = s.split()
-        if len(tokens) == 1 and tokens[0].isdecimal():
+        if len(tokens) == 1 and _FRAME_NUMBER.match(tokens[0]):
+            number = int(tokens[0]) if len(tokens[0]) <= 13 else -1  # a huge one is out of range anyway
+            if n_frames == 0 and number not in FIRST_AMC_FRAMES:
+                raise MotionFormatError(path, f"frame number {tokens[0][:24]} out of range: the first frame is "
+                                              f"numbered {' or '.join(map(str, FIRST_AMC_FRAMES))}", ln)
+            first_number = number if n_frames == 0 else first_number
+            if number != first_number + n_frames:
+                raise MotionFormatError(path, f"frame number {tokens[0][:24]} out of range: frame "
+                                              f"{first_number + n_frames} comes next", ln)
             n_frames += 1
             continue
         name = tokens[0]
