@@ -9,7 +9,9 @@ characters through pyrender; where that cannot run, the video is the top-down 2-
 animation and the result's note says why. The app runs this command in a child process
 with ``--progress-lines``: it then prints ``progress DONE TOTAL`` after every frame
 instead of a progress bar, and in every case ends with one ``result {json}`` line
-(``path``, ``mode``, ``frames``, ``note``).
+(``path``, ``mode``, ``frames``, ``note``). ``--narration-dir DIR``: the folder of the
+story's assets, so narrated scenes are heard in the video (``storybeam export-video``,
+:mod:`app.commands.export_video_cmd`, does the same for the demo story and one file).
 """
 from __future__ import annotations
 
@@ -33,6 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--fps", type=float, default=15.0, help="frames per second (default 15)")
     p.add_argument("--progress-lines", action="store_true",
                    help="print 'progress DONE TOTAL' lines instead of a progress bar (for the app)")
+    p.add_argument("--narration-dir", metavar="DIR", default=None,
+                   help="the folder of the story's assets: narrated scenes get their voice in the video")
     p.set_defaults(func=run)
 
 
@@ -51,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             bar(i + 1, total)
 
-    result = export_story_mp4(story, args.out, args.fps, progress, args.view)
+    result = export_story_mp4(story, args.out, args.fps, progress, args.view, args.narration_dir)
     print("result " + json.dumps({"path": str(result.path), "mode": result.mode, "frames": result.frames,
                                   "note": result.note}), flush=True)
     return 0
+

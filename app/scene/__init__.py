@@ -42,10 +42,14 @@ from app.scene.video_export import (
     VIEWS as EXPORT_VIEWS,
 )
 from app.scene.video_export import (
+    AUDIO_RATE,
     ExportResult,
     VideoExportError,
     app_exporter,
     available,
+    has_narration,
+    mux_audio,
+    story_audio,
     export_in_subprocess,
     export_story_mp4,
     frame_count,
@@ -63,4 +67,5 @@ __all__ = [
     # video export
     "EXPORT_VIEWS", "VideoExportError", "ExportResult", "available", "frame_count", "story_frames",
     "story_frames_3d", "export_story_mp4", "export_in_subprocess", "app_exporter", "read_story",
+    "AUDIO_RATE", "has_narration", "story_audio", "mux_audio",
 ]

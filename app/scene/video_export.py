@@ -17,6 +17,16 @@ failing first frame) the export falls back to the top-down 2-D animation drawn w
 Pillow and says so in the result (the teacher screen and the log show it). Encoding is
 imageio-ffmpeg; without ffmpeg, :func:`available` says why.
 
+Narration (issue 14): when a scene has a voice and the caller says where the story's
+assets are (``narration_dir``), :func:`story_audio` lays each scene's narration at the
+first sample of that scene's first video frame on one 48 kHz mono track that is exactly
+as long as the video (scene ``i`` spans ``round(duration_i * fps)`` frames, so its audio
+spans the samples between the cumulative frame boundaries times ``48000 / fps``, rounded
+-- boundaries never drift), resampled with a polyphase filter
+(:func:`scipy.signal.resample_poly`); silence elsewhere. ffmpeg (imageio-ffmpeg's binary)
+then muxes it as AAC beside the untouched H.264 stream, so the audio stream's duration
+equals the video's, which is the story's duration rounded to whole frames per scene.
+
 By hand (and in the app's child process): ``storybeam export STORY.json OUT.mp4
 [--view camera|overhead|projector|2d] [--fps 15]`` (:mod:`app.commands.export_cmd`).
 
@@ -29,9 +39,11 @@ import atexit
 import importlib.util
 import json
 import logging
+import math
 import subprocess
 import sys
 import tempfile
+import wave
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator
@@ -39,7 +51,8 @@ from typing import Callable, Iterator
 import numpy as np
 
 from app.paths import REPO_ROOT
-from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Story, StoryError
+from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, NarrationError, Story, StoryError, read_audio
+from retrieval.durable import durable_move, fsync_file, make_dirs
 from retrieval.errors import StoryBeamError
 
 # RGB 0..255, mirrors app/ui/art.py (kept separate: that module needs Kivy)
@@ -82,6 +95,73 @@ def available() -> str | None:
 
 def frame_count(story: Story, fps: float) -> int:
     return sum(max(1, int(round(scene.duration * fps))) for scene in story.scenes)
+
+
+#: Sample rate of an exported video's sound track (Hz).
+AUDIO_RATE = 48000
+
+
+def has_narration(story: Story) -> bool:
+    return any(scene.narration is not None for scene in story.scenes)
+
+
+def story_audio(story: Story, fps: float, narration_dir: str | Path,
+                rate: int = AUDIO_RATE) -> tuple[np.ndarray, list[str]]:
+    """The story's sound track as int16 mono samples at ``rate`` -- exactly
+    ``frame_count(story, fps) / fps`` seconds (rounded to a sample) -- and a list of
+    problems (a narration file missing or damaged: that scene stays silent).
+
+    Scene ``i`` starts at sample ``round(F_i * rate / fps)``, ``F_i`` the number of video
+    frames before it, so every narration starts on its scene's first frame."""
+    from scipy.signal import resample_poly  # deferred: scipy only when a narrated story is exported
+
+    counts = [max(1, int(round(scene.duration * fps))) for scene in story.scenes]
+    bounds = [int(round(f * rate / fps)) for f in np.concatenate([[0], np.cumsum(counts)])]
+    track = np.zeros(bounds[-1], np.int16)
+    problems: list[str] = []
+    for i, scene in enumerate(story.scenes):
+        if scene.narration is None:
+            continue
+        try:
+            audio = read_audio(Path(narration_dir) / scene.narration.asset)
+        except NarrationError as exc:
+            problems.append(f"scene {i + 1} is silent: {exc}")
+            continue
+        samples = audio.samples.astype(np.float64)
+        if audio.rate != rate:
+            g = math.gcd(audio.rate, rate)
+            samples = resample_poly(samples, rate // g, audio.rate // g)
+        a, b = bounds[i], bounds[i + 1]
+        part = np.clip(np.round(samples[: b - a]), -32768, 32767).astype(np.int16)
+        track[a:a + len(part)] = part
+    return track, problems
+
+
+def _write_wav(path: Path, samples: np.ndarray, rate: int) -> None:
+    with wave.open(str(path), "wb") as wf:
+        wf.setnchannels(1)
+        wf.setsampwidth(2)
+        wf.setframerate(rate)
+        wf.writeframes(samples.astype("<i2").tobytes())
+
+
+def mux_audio(video: Path, samples: np.ndarray, out: Path, rate: int = AUDIO_RATE) -> None:
+    """Write ``out``: ``video``'s H.264 stream copied and ``samples`` as an AAC stream
+    (imageio-ffmpeg's ffmpeg binary). Raises :class:`VideoExportError`."""
+    import imageio_ffmpeg  # optional: imageio-ffmpeg (absent on Android; available() said it is here)
+
+    wav = out.with_name(f".{out.stem}.audio.wav")
+    try:
+        _write_wav(wav, samples, rate)
+        cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-nostdin", "-y", "-v", "error", "-i", str(video), "-i", str(wav),
+               "-map", "0:v:0", "-map", "1:a:0", "-c:v", "copy", "-c:a", "aac", "-b:a", "128k", "-ar", str(rate),
+               "-ac", "1", "-f", "mp4", str(out)]
+        done = subprocess.run(cmd, capture_output=True, text=True, errors="replace")
+        if done.returncode != 0:
+            last = (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
+            raise VideoExportError(f"{out}: adding the narration failed ({last})")
+    finally:
+        wav.unlink(missing_ok=True)
 
 
 def story_frames(story: Story, fps: float = 15.0, size: tuple[int, int] = (640, 426)):
@@ -142,12 +222,16 @@ def story_frames_3d(story: Story, fps: float = 15.0, view: str = "camera") -> It
 
 
 def export_story_mp4(story: Story, path: str | Path, fps: float = 15.0,
-                     progress: Callable[[int], None] | None = None, view: str = "camera") -> ExportResult:
+                     progress: Callable[[int], None] | None = None, view: str = "camera",
+                     narration_dir: str | Path | None = None) -> ExportResult:
     """Write ``story`` as an H.264 MP4 at ``path``.
 
     ``view`` is ``camera``, ``overhead``, ``projector`` (3-D) or ``2d``. A 3-D view that
     cannot render (no pyrender or GL) falls back to ``2d``; the result's ``note`` says
-    why. ``progress(i)`` is called after frame ``i`` is written."""
+    why. ``progress(i)`` is called after frame ``i`` is written. With ``narration_dir``
+    (the folder of the story's assets) and a narrated scene, the video gets its sound
+    track (see the module docstring); a narration that cannot be read leaves its scene
+    silent and is named in the note."""
     if view not in VIEWS:
         raise VideoExportError(f"{path}: unknown view {view!r}; choose one of {', '.join(VIEWS)}")
     why = available()
@@ -160,7 +244,7 @@ def export_story_mp4(story: Story, path: str | Path, fps: float = 15.0,
     mode, note, written = view, "", 0
     frames: Iterator[np.ndarray] = story_frames(story, fps) if view == "2d" else story_frames_3d(story, fps, view)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        make_dirs(path.parent)
         if view != "2d":
             try:
                 first = next(frames)
@@ -180,12 +264,26 @@ def export_story_mp4(story: Story, path: str | Path, fps: float = 15.0,
                 written += 1
                 if progress:
                     progress(i)
-        tmp.replace(path)
-    except (OSError, RuntimeError, ValueError) as exc:
+        if narration_dir is not None and has_narration(story):
+            samples, problems = story_audio(story, fps, narration_dir)
+            if problems:
+                note = "; ".join([note] + problems if note else problems)
+                log.warning("%s: %s", path, "; ".join(problems))
+            muxed = path.with_name(f".{path.stem}.tmp-audio{path.suffix}")
+            try:
+                mux_audio(tmp, samples, muxed)
+                muxed.replace(tmp)
+            finally:
+                muxed.unlink(missing_ok=True)
+        fsync_file(tmp)  # durable (retrieval.durable): the video reaches the disk before its name
+        durable_move(tmp, path)
+    except (OSError, RuntimeError, ValueError, VideoExportError) as exc:
         try:
             tmp.unlink(missing_ok=True)
         except (OSError, ValueError):
             pass
+        if isinstance(exc, VideoExportError):
+            raise
         raise VideoExportError(f"{path}: video export failed ({exc})") from None
     finally:
         close = getattr(frames, "close", None)
@@ -212,7 +310,8 @@ def _stop_children() -> None:
 
 
 def export_in_subprocess(story: Story, path: str | Path, fps: float = 15.0, view: str = "camera",
-                         progress: Callable[[int, int], None] | None = None) -> ExportResult:
+                         progress: Callable[[int, int], None] | None = None,
+                         narration_dir: str | Path | None = None) -> ExportResult:
     """Run :func:`export_story_mp4` in a child Python process (its own GL context, away
     from the Kivy window's); ``progress(done, total)`` follows its frame count. Blocks:
     call it from a worker thread."""
@@ -222,7 +321,7 @@ def export_in_subprocess(story: Story, path: str | Path, fps: float = 15.0, view
         story_json = fh.name
     # the child is `storybeam export` (app.commands.export_cmd), run from the checkout
     cmd = [sys.executable, "-m", "app.cli", "export", story_json, str(path), "--view", view, "--fps", str(fps),
-           "--progress-lines"]
+           "--progress-lines"] + (["--narration-dir", str(narration_dir)] if narration_dir is not None else [])
     root = str(REPO_ROOT)
     proc = None
     # stderr goes to a file: a chatty child must never block on a full pipe nobody reads
@@ -253,19 +352,24 @@ def export_in_subprocess(story: Story, path: str | Path, fps: float = 15.0, view
     return ExportResult(Path(data["path"]), data["mode"], data["frames"], data["note"])
 
 
-def app_exporter(view: str = "camera", fps: float = 15.0):
+def app_exporter(view: str = "camera", fps: float = 15.0, narration_dirs: Callable[[Story], Path] | None = None):
     """The exporter the app calls from a worker thread: ``export(story, path,
     progress(done, total)) -> ExportResult``. 3-D in a child process when pyrender is
     installed; otherwise (Android, a slim install) the 2-D video in the calling thread,
-    with the reason in the result's ``note`` and the log."""
+    with the reason in the result's ``note`` and the log. ``narration_dirs(story)``: the
+    folder of a story's assets, for its sound track."""
+    def voices(story: Story) -> Path | None:
+        return narration_dirs(story) if narration_dirs is not None and has_narration(story) else None
+
     if view != "2d" and importlib.util.find_spec("pyrender") is not None:
         def export(story: Story, path: str | Path, progress=None) -> ExportResult:
-            return export_in_subprocess(story, path, fps, view, progress)
+            return export_in_subprocess(story, path, fps, view, progress, voices(story))
         return export
 
     def export_2d(story: Story, path: str | Path, progress=None) -> ExportResult:
         total = frame_count(story, fps)
-        result = export_story_mp4(story, path, fps, (lambda i: progress(i + 1, total)) if progress else None, "2d")
+        result = export_story_mp4(story, path, fps, (lambda i: progress(i + 1, total)) if progress else None, "2d",
+                                  voices(story))
         if view != "2d":
             result.note = "3-D rendering unavailable (pyrender is not installed); top-down 2-D video instead"
             log.warning("%s: %s", path, result.note)
@@ -283,5 +387,6 @@ def read_story(path: str | Path) -> Story:
         raise VideoExportError(f"{path}: cannot read the story ({exc})") from None
 
 
-__all__ = ["VIEWS", "VideoExportError", "ExportResult", "available", "frame_count", "story_frames",
+__all__ = ["VIEWS", "VideoExportError", "ExportResult", "available", "frame_count", "AUDIO_RATE", "has_narration",
+           "story_audio", "mux_audio", "story_frames",
            "story_frames_3d", "export_story_mp4", "export_in_subprocess", "app_exporter", "read_story"]

@@ -5,7 +5,9 @@
 * :mod:`app.services.thumbnails` -- stick-figure thumbnails of clips, made on a
   background thread;
 * :mod:`app.services.calibration_wizard` -- the teacher's camera calibration as steps the
-  UI runs one at a time (board, capture, solve, save), done by ``ar``.
+  UI runs one at a time (board, capture, solve, save), done by ``ar``;
+* :mod:`app.services.recording` -- recording a scene's narration (Android AudioRecord
+  through pyjnius, sounddevice on a desktop) into a crash-safe ``.part`` file.
 
 The UI must start fast and keep working where a part is missing (no numba on Android, no
 pyrender, no bundled clips): each service answers from cheap data at once and loads the
@@ -15,6 +17,15 @@ from __future__ import annotations
 
 from app.services.calibration_wizard import CalibrationStep, CalibrationWizard
 from app.services.catalog import ClipInfo, MotionCatalog
+from app.services.recording import (
+    RECORD_RATE,
+    ArraySource,
+    ChunkRecorder,
+    ChunkSource,
+    RecordingError,
+    discard_stale,
+    find_recorder,
+)
 from app.services.thumbnails import (
     BONES,
     HEAD,
@@ -31,4 +42,5 @@ __all__ = [
     "ThumbnailCache", "StickFrames", "stick_frames", "clip_stick_frames", "library_files", "BONES", "HEAD",
     "VIEW_YAW_DEG",
     "CalibrationWizard", "CalibrationStep",
+    "ChunkRecorder", "ChunkSource", "ArraySource", "RecordingError", "RECORD_RATE", "find_recorder", "discard_stale",
 ]

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from app.story.model import (BACKGROUNDS, CHARACTER_KINDS, MARK_KINDS, MAX_CHARACTERS_PER_SCENE, MAX_SCENES,
-                       Character, Mark, MotionChoice, Scene, Story, StoryError, path_point, new_id)
+                       Character, Mark, MotionChoice, Narration, Scene, Story, StoryError, path_point, new_id)
 
 #: How many steps back a child can go; older steps are dropped.
 MAX_UNDO = 200
@@ -204,6 +204,16 @@ class StoryEditor:
         def change(s: Story) -> None:
             s.scene(scene_id).character(character_id).motion = choice
         self._execute("motion", change)
+
+    def set_narration(self, scene_id: str, narration: Narration | None) -> None:
+        """Point a scene at a stored narration (:func:`app.story.narration.store_narration`
+        writes the audio first), or remove it with None. Undo keeps the asset's name, and
+        stored narration assets are never overwritten, so undo brings the voice back."""
+        checked = None if narration is None else Narration.from_dict(narration.to_dict())
+
+        def change(s: Story) -> None:
+            s.scene(scene_id).narration = checked
+        self._execute("narration", change)
 
     def add_mark(self, scene_id: str, character_id: str, kind: str, at: float) -> None:
         """Add a hop or spin at time ``at`` along the character's path."""

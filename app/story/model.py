@@ -198,19 +198,55 @@ def path_point(p: Any, where: str) -> tuple[float, float, float]:
     return (x, y, t)
 
 
+#: Longest narration one scene may carry (seconds); :mod:`app.story.narration` enforces
+#: it on import and recording, the model again on load (a package may lie).
+MAX_NARRATION_SECONDS = 120.0
+
+
+@dataclass
+class Narration:
+    """A scene's recorded or imported voice: a story asset (a validated mono 16-bit PCM
+    WAV, see :mod:`app.story.narration`) that starts with the scene.
+
+    ``asset`` names the file among the story's assets (content-addressed, so saving a
+    new recording never overwrites the one the saved story still points to);
+    ``seconds`` is its length. A scene lasts at least as long as its narration.
+    """
+
+    asset: str
+    seconds: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"asset": self.asset, "seconds": self.seconds}
+
+    @classmethod
+    def from_dict(cls, data: Any, where: str = "narration") -> "Narration":
+        asset = _check_text(_get(data, "asset", where, str), f"{where}.asset", 64)
+        _require(bool(asset) and asset[0].isalnum() and ".." not in asset
+                 and all(ch.isascii() and (ch.isalnum() or ch in "_.-") for ch in asset),
+                 f"{where}.asset", f"unsafe asset name {asset!r}")
+        seconds = _finite(_get(data, "seconds", where, (int, float)), f"{where}.seconds")
+        _require(0.0 < seconds <= MAX_NARRATION_SECONDS, f"{where}.seconds",
+                 f"length {seconds:.2f} s out of range (0 to {MAX_NARRATION_SECONDS:.0f} s)")
+        return cls(asset, seconds)
+
+
 @dataclass
 class Scene:
-    """One scene: a background and up to a handful of characters."""
+    """One scene: a background, up to a handful of characters and an optional narration."""
 
     background: str = "sky"
     characters: list[Character] = field(default_factory=list)
     part: str | None = None  # which part of the story arc this scene tells
     id: str = field(default_factory=new_id)
+    narration: Narration | None = None
 
     @property
     def duration(self) -> float:
-        """Length of the scene: the longest character path, at least two seconds."""
-        return max([2.0] + [c.duration for c in self.characters])
+        """Length of the scene: the longest character path or the narration, at least two
+        seconds (a child's voice is never cut off by a short path)."""
+        voice = self.narration.seconds if self.narration is not None else 0.0
+        return max([2.0, voice] + [c.duration for c in self.characters])
 
     def character(self, character_id: str) -> Character:
         for c in self.characters:
@@ -219,8 +255,11 @@ class Scene:
         raise StoryError(f"scene {self.id}: no character '{character_id}'")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"id": self.id, "background": self.background, "part": self.part,
-                "characters": [c.to_dict() for c in self.characters]}
+        data: dict[str, Any] = {"id": self.id, "background": self.background, "part": self.part,
+                                "characters": [c.to_dict() for c in self.characters]}
+        if self.narration is not None:  # absent, not null: stories without a voice stay as they were
+            data["narration"] = self.narration.to_dict()
+        return data
 
     @classmethod
     def from_dict(cls, data: Any, where: str = "scene") -> "Scene":
@@ -234,7 +273,9 @@ class Scene:
                  f"more than {MAX_CHARACTERS_PER_SCENE} characters")
         characters = [Character.from_dict(c, f"{where}.characters[{i}]") for i, c in enumerate(chars)]
         _require(len({c.id for c in characters}) == len(characters), f"{where}.characters", "duplicate character id")
-        return cls(background=background, characters=characters, part=part, id=sid)
+        raw_narration = data.get("narration")  # optional: stories saved before narration have none
+        narration = None if raw_narration is None else Narration.from_dict(raw_narration, f"{where}.narration")
+        return cls(background=background, characters=characters, part=part, id=sid, narration=narration)
 
 
 @dataclass

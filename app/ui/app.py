@@ -22,7 +22,7 @@ from kivy.uix.screenmanager import NoTransition, ScreenManager
 from app.paths import FONT_PATH
 from app.scene import RenderThread, StageJob, app_exporter, available
 from app.services import MotionCatalog, ThumbnailCache
-from app.story import ProfileStore, Scene, StorageError, Story, StoryEditor, demo_story
+from app.story import ProfileStore, Scene, StorageError, Story, StoryEditor, demo_story, prune_narrations
 from app.ui.editor import EditorScreen
 from app.ui.home import HomeScreen
 from app.ui.play import PlayScreen, ProjectorScreen
@@ -104,7 +104,8 @@ class StoryBeamApp(App):
             self.renderer = RenderThread(self.renderer_factory,
                                          lambda cb, frame: Clock.schedule_once(lambda dt: cb(frame), 0))
         if available() is None:
-            self.video_exporter = app_exporter(self.video_view)
+            self.video_exporter = app_exporter(self.video_view,  # narrated scenes: their voice from the assets
+                                               narration_dirs=lambda story: self.store.story_assets_dir(story.id))
         self.sm = ScreenManager(transition=NoTransition())
         for screen in (HomeScreen(name="home"), EditorScreen(name="editor"), PlayScreen(name="play"),
                        ProjectorScreen(name="projector"), PinScreen(name="pin"), TeacherScreen(name="teacher"),
@@ -165,6 +166,7 @@ class StoryBeamApp(App):
         except StorageError as exc:
             self.show_message(self.t("error", why=str(exc)))
             return False
+        prune_narrations(self.store, story)  # voices the saved story no longer uses (app.story.narration)
         self._edit(story)
         self.store.log_activity("open story", story.id)
         if switch:
