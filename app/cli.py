@@ -21,7 +21,8 @@ from retrieval.errors import StoryBeamError
 #: Commands in the order `storybeam --help` lists them (module names without ``_cmd``);
 #: a command module not named here is listed after these, alphabetically.
 COMMAND_ORDER = (
-    "eval", "search", "build_library", "board", "calibrate", "render", "demo", "export", "app", "bench", "stress",
+    "eval", "search", "cluster", "build_library", "board", "calibrate", "render", "demo", "export", "app", "bench",
+    "stress",
 )
 
 

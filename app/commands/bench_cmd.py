@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Callable
 
 from app.commands.output import write_json_report
+from app.paths import SHARED_CMU
 from app.progress import progress_bar
 from retrieval.errors import StoryBeamError
 
@@ -61,9 +62,11 @@ def _fps(text: str) -> float:
 
 
 # ------------------------------------------------------------------------- retrieval
-RETRIEVAL_DOC = """Retrieval speed (app/bench/retrieval.py): the paper protocol for the fast search,
-the seed's method, exact DTW and dtaidistance side by side, the ablations, 1-NN latency
-over a CMU-sized derived library, and memory."""
+RETRIEVAL_DOC = """Retrieval speed (app/bench/retrieval.py), per query, interleaved, one core: the
+fast search against a UCR-suite-style exact rival and the seed's brute force on the same
+code distance (the headline), and float-feature DTW (brute force, dtaidistance pruned) as
+another distance; on the paper protocol, a CMU-sized derived library and one ten times
+bigger; the ablations, latency against library size, and memory."""
 
 
 def _add_retrieval(sub: argparse._SubParsersAction) -> None:
@@ -309,6 +312,33 @@ def _run_fast_search_profile(args: argparse.Namespace) -> int:
     return _finish(args, result, format_report(result))
 
 
+# ---------------------------------------------------------------------- pose-search
+POSE_SEARCH_DOC = """Search by pose (app/bench/pose_search.py): the pose at the most characteristic frame
+of every jump, kick and run clip, its own clip held back; top-1 class accuracy per class
+and search_ms (features to answer), beside the same queries refined over every clip."""
+
+
+def _add_pose_search(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "pose-search", "search by pose: held-back top-1 class and search_ms", POSE_SEARCH_DOC,
+                _run_pose_search)
+    p.add_argument("--data", default=None, help="labelled folder (default: the shared CMU set)")
+    p.add_argument("--fps", type=_fps, default=30.0, help="frame rate of the library (default 30, the app's)")
+    p.add_argument("--backend", choices=("auto", "numba", "numpy"), default="auto",
+                   help="DTW back-end (numpy: the tablet's path without numba)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _run_pose_search(args: argparse.Namespace) -> int:
+    # deferred: app.bench.pose_search loads numba and the retrieval stack
+    from app.bench.pose_search import format_report, run_pose_search_bench
+
+    data = args.data or SHARED_CMU
+    if not Path(data).is_dir():
+        raise StoryBeamError(f"--data {data}: not a folder")
+    result = run_pose_search_bench(data, fps=args.fps, progress=not args.quiet, backend=args.backend)
+    return _finish(args, result, format_report(result))
+
+
 #: Benchmark targets: name -> function adding its sub-parser (in `storybeam bench --help` order).
 TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
     "retrieval": _add_retrieval,
@@ -318,6 +348,7 @@ TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
     "motion-io": _add_motion_io,
     "numpy-retrieval": _add_numpy_retrieval,
     "fast-search-profile": _add_fast_search_profile,
+    "pose-search": _add_pose_search,
 }
 
 

@@ -1,7 +1,9 @@
 """Big "more like this" tiles that show the motion itself: an animated stick figure
 (:mod:`app.services.thumbnails`) drawn with a few Kivy lines, cycling through its poses, so a
 child who cannot read the clip's name picks by looking. Until the figure is ready (or
-when the clip cannot be read) the tile shows the motion's icon."""
+when the clip cannot be read) the tile shows the motion's icon. A tile may start its
+figure part-way through the clip (``start``, a fraction of it): a pose search's tiles
+start at the moment the clip passes through the pose."""
 from __future__ import annotations
 
 from typing import Callable
@@ -47,12 +49,13 @@ class ClipTile(IconButton):
     """A clip choice: the motion's icon, replaced by its animated stick figure when ready."""
 
     def __init__(self, trial: str, label: str, icon: str, colour, thumbs: ThumbnailCache | None,
-                 on_press: Callable[[], object], selected: bool = False):
+                 on_press: Callable[[], object], selected: bool = False, start: float = 0.0):
         super().__init__(icon, label, on_press=on_press, font_size=dp(13), icon_colour=list(colour),
                          selected=selected)
         self.trial = trial
         self.figure: StickFigureView | None = None
         self._colour = tuple(colour)
+        self._start = min(max(float(start), 0.0), 1.0)
         self._event = None
         if thumbs is not None:
             ready = thumbs.get(trial)
@@ -65,6 +68,7 @@ class ClipTile(IconButton):
         if self.figure is not None:
             return
         self.figure = StickFigureView(frames, colour=tuple(c * 0.6 for c in self._colour))
+        self.figure.pose = int(round(self._start * (frames.n_frames - 1)))
         index = self.children.index(self.icon_view) if self.icon_view in self.children else None
         if index is not None:
             self.remove_widget(self.icon_view)

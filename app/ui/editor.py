@@ -18,6 +18,8 @@ from kivy.uix.widget import Widget
 from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES, find_spins, hop_time
 from app.ui.art import MOTION_COLOURS, draw_background, draw_character_badge
 from app.ui.clip_tiles import ClipTile
+from app.ui.pose_picker import GroupBrowser, PosePicker
+from app.ui.narration import voice_button
 from app.ui.table_view import TableView, normalise_times
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
@@ -174,6 +176,8 @@ class EditorScreen(Screen):
         bar.add_widget(self.undo_button)
         bar.add_widget(self.redo_button)
         bar.add_widget(Widget())
+        self.voice_button = voice_button(self)  # the scene's narration (app.ui.narration)
+        bar.add_widget(self.voice_button)
         self.play_button = IconButton("play", t("play"), on_press=lambda: app.go("play"), size_hint_x=None,
                                       width=dp(90), background=[0.75, 0.95, 0.75, 1])
         bar.add_widget(self.play_button)
@@ -232,6 +236,13 @@ class EditorScreen(Screen):
         right.add_widget(motion_grid)
         right.add_widget(IconButton("more", t("more_like_this"), on_press=self.more_like_this,
                                     size_hint_y=None, height=dp(64), font_size=dp(14)))
+        finders = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
+        self.pose_button = IconButton("jump", t("pose_button"), on_press=self.search_by_pose, font_size=dp(14))
+        self.groups_button = IconButton("duplicate", t("groups_button"), on_press=self.browse_groups,
+                                        font_size=dp(14))
+        finders.add_widget(self.pose_button)
+        finders.add_widget(self.groups_button)
+        right.add_widget(finders)
         right.add_widget(Widget())
         root.add_widget(right)
         self.add_widget(root)
@@ -361,6 +372,30 @@ class EditorScreen(Screen):
         view.add_widget(box)
         self.clip_view = view
         view.open()
+
+    def _pick_clip(self, label: str, trial: str) -> None:
+        """A clip chosen in the pose search or the groups, for the selected character."""
+        character = self.selected_character()
+        if character is not None and self.scene is not None:
+            self._edit(lambda ed: ed.set_motion(self.scene.id, character.id, label, trial))
+
+    def search_by_pose(self) -> None:
+        """Open the posable figure (:class:`app.ui.pose_picker.PosePicker`)."""
+        app = App.get_running_app()
+        if self.selected_character() is None:
+            app.show_message(app.t("pick_character_hint"))
+            return
+        self.pose_view = PosePicker(on_pick=self._pick_clip)
+        self.pose_view.open()
+
+    def browse_groups(self) -> None:
+        """Open the library's own groups (:class:`app.ui.pose_picker.GroupBrowser`)."""
+        app = App.get_running_app()
+        if self.selected_character() is None:
+            app.show_message(app.t("pick_character_hint"))
+            return
+        self.group_view = GroupBrowser(on_pick=self._pick_clip)
+        self.group_view.open()
 
     def undo(self) -> None:
         App.get_running_app().editor.undo()
