@@ -2,7 +2,15 @@
 
 Prints the seed-style table (search time and accuracy per method) with balanced and
 per-class accuracy; ``--json`` writes the same numbers; ``--sweep-dims 1-7`` adds the
-study over the number of kept PCA components, with ``--plots`` as PNG figures.
+study over the number of kept PCA components, with ``--plots`` as PNG figures (and a
+confusion matrix per method and split). ``--split random,subject`` runs the random folds
+and leave-one-subject-out (performer / style) one after the other and tabulates both.
+
+Methods: ``storybeam`` (StoryBeam's own: code shortlist + exact float-DTW re-ranking on
+MR17 + turning rate), ``dtw-storybeam`` (exact DTW on the same features), and the seed's
+``quantized``, ``quantized-fast``, ``dtw``, ``forbes`` on the 17 MR17 features.
+``--features mr17`` and ``--heading-weight`` change what the storybeam methods see
+(ablations); ``--shortlist`` how many clips it re-ranks.
 """
 from __future__ import annotations
 
@@ -37,8 +45,24 @@ def register(subparsers) -> None:
     p.add_argument("--folds", type=int, default=3)
     p.add_argument("--dims", type=int, default=6, help="kept PCA components n (default 6, as the research)")
     p.add_argument("--fps", type=float, default=30.0, help="resample every clip to this rate (default 30)")
-    p.add_argument("--methods", default="quantized-fast,quantized,dtw,forbes",
-                   help="comma list of quantized-fast, quantized, dtw, forbes")
+    p.add_argument("--methods", default="storybeam,quantized-fast,quantized,dtw-storybeam,dtw,forbes",
+                   help="comma list of storybeam, dtw-storybeam, quantized-fast, quantized, dtw, forbes")
+    p.add_argument("--split", default="random",
+                   help="comma list of protocols: random (stratified --folds), subject (leave one subject out)")
+    p.add_argument("--features", choices=["storybeam", "mr17"], default="storybeam",
+                   help="features of the storybeam and dtw-storybeam methods (ablation: mr17)")
+    p.add_argument("--heading-weight", type=float, default=None,
+                   help="weight of the turning rate in the storybeam features (ablation; default the set's)")
+    p.add_argument("--normalise", choices=["legs", "arms", "chain"], default=None,
+                   help="how the storybeam features divide lengths (ablation; default the set's)")
+    p.add_argument("--centre", choices=["on", "off"], default=None,
+                   help="subtract each storybeam feature's mean over the clip (ablation; default the set's)")
+    p.add_argument("--identity", action="store_true",
+                   help="instead of the folds: write every clip as BVH on another skeleton at another frame rate, "
+                        "read it back and count how often the clip finds itself first (storybeam vs the seed's codes)")
+    p.add_argument("--identity-fps", type=float, default=50.0, help="frame rate of the written BVH files (default 50)")
+    p.add_argument("--shortlist", type=int, default=None,
+                   help="clips the storybeam method re-ranks by exact float DTW (default 4)")
     p.add_argument("--band", type=int, default=None, help="Sakoe-Chiba band radius in frames (default none)")
     p.add_argument("--forbes-clusters", type=int, default=None, help="k for Forbes-Fiume (default min(4^n, 1024))")
     p.add_argument("--json", dest="json_out", help="write results as JSON here")
@@ -70,28 +94,152 @@ def format_table(results: dict, n_clips: int, seconds: float) -> str:
     return "\n".join(lines)
 
 
+def format_splits(per_split: dict[str, dict]) -> str:
+    """Accuracy and search time per method (rows) and protocol (columns)."""
+    splits = list(per_split)
+    names = list(next(iter(per_split.values())))
+    lines = [f"{'':<16}" + "".join(f"{s + ' acc (%)':>18}{s + ' bal (%)':>18}" for s in splits)]
+    for n in names:
+        lines.append(f"{n:<16}" + "".join(f"{100 * per_split[s][n]['accuracy']:>18.2f}"
+                                          f"{100 * per_split[s][n]['balanced_accuracy']:>18.2f}" for s in splits))
+    return "\n".join(lines)
+
+
+def speed_ratios(res: dict) -> dict[str, float]:
+    """Exact DTW's search time over each fast method's, wall and CPU, from one run."""
+    out = {}
+    for fast, exact in (("quantized-fast", "dtw"), ("quantized", "dtw"), ("storybeam", "dtw-storybeam")):
+        if fast in res and exact in res and res[fast]["search_seconds"] > 0:
+            key = fast.replace("-", "_")
+            ref = exact.replace("-", "_")
+            out[f"{ref}_over_{key}_search_time"] = res[exact]["search_seconds"] / res[fast]["search_seconds"]
+            out[f"{ref}_over_{key}_search_cpu_time"] = (res[exact]["search_cpu_seconds"]
+                                                        / max(res[fast]["search_cpu_seconds"], 1e-12))
+    return out
+
+
+#: The "other skeleton" of --identity: a child-sized canonical body (1.3 m) with its own
+#: proportions (longer shins, shorter arms, wider shoulders than the default adult).
+IDENTITY_HEIGHT_M = 1.3
+IDENTITY_PROPORTIONS = {"thigh": 0.23, "shin": 0.26, "upper_arm": 0.15, "forearm": 0.14,
+                        "shoulder_half_width": 0.12, "hip_half_width": 0.07, "head_top": 0.15}
+
+
+def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, shortlist: int | None, dims: int,
+                   progress=None) -> dict:
+    """"Find this clip": every clip, retargeted (StoryBeam's retarget) onto a different
+    canonical skeleton, resampled to ``write_fps``, written as BVH with StoryBeam's writer
+    and read back, is the query against the whole library (the clips as loaded). Counts
+    how often the clip itself is first: for the storybeam method (code shortlist +
+    float-DTW re-ranking) and for the seed's codes alone (the fast exact search, ties by
+    library order), with how many library clips tie with the seed's best distance."""
+    import tempfile  # deferred: only for --identity
+
+    import numpy as np  # deferred: numpy stack only for this command
+
+    from retrieval.animation import BodyProportions, canonical_skeleton, retarget  # deferred: as above
+    from retrieval.codes import DiffTable, Quantizer  # deferred: as above
+    from retrieval.library import SHORTLIST, StoryBeamSearcher, clip_from_motion  # deferred: as above
+    from retrieval.motion import load_motion, resample, save_bvh  # deferred: as above
+    from retrieval.search import FastSearcher  # deferred: as above
+
+    target = canonical_skeleton(BodyProportions(**IDENTITY_PROPORTIONS), IDENTITY_HEIGHT_M, "identity-child")
+    sb = StoryBeamSearcher.fit([c.features for c in clips], dims, shortlist or SHORTLIST)
+    # the seed's method: its quantiser on the MR17 columns, the exact fast search over its codes
+    seed_q = Quantizer.fit(np.concatenate([c.features[:, :17] for c in clips]), dims)
+    seed_fast = FastSearcher([seed_q.encode(c.features[:, :17]) for c in clips], DiffTable.from_ratios(seed_q.ratios))
+    found_sb = found_seed = 0
+    ties = []
+    misses = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for n, (row, clip) in enumerate(zip(rows, clips)):
+            motion = load_motion(row.file, row.skeleton) if row.skeleton else load_motion(row.file)
+            moved = resample(retarget(motion, target, name=row.trial), write_fps)
+            path = save_bvh(moved, Path(tmp) / f"{row.trial}.bvh")
+            back = clip_from_motion(load_motion(path), row.trial, row.label, fps, feature_set)
+            hits = sb.search(back.features, k=1)
+            found_sb += hits[0].index == n
+            res = seed_fast.search([seed_q.encode(back.features[:, :17])], k=min(len(clips), 8),
+                                   parallel=False)
+            found_seed += int(res.indices[0, 0]) == n
+            ties.append(int(np.sum(res.distances[0] <= res.distances[0, 0])))
+            if hits[0].index != n:
+                misses.append({"trial": row.trial, "found": clips[hits[0].index].trial})
+            if progress is not None:
+                progress(n + 1, len(rows))
+    total = len(clips)
+    return {"clips": total, "write_fps": write_fps, "skeleton": f"canonical {IDENTITY_HEIGHT_M} m, {IDENTITY_PROPORTIONS}",
+            "storybeam_top1": found_sb / total, "quantized_top1": found_seed / total,
+            "quantized_mean_ties_at_best": float(np.mean(ties)), "storybeam_misses": misses}
+
+
 def run(args) -> int:
     from retrieval.library import load_dataset, read_labels  # deferred: numpy/numba stack only for this command
     # deferred: the experiment layer (numpy, numba kernels) only for this command
-    from retrieval.experiment import METHODS, evaluate, plot_sweep, stratified_subset, sweep_dims
+    from retrieval.experiment import (
+        METHODS,
+        SEED_METHODS,
+        SPLITS,
+        evaluate,
+        plot_confusion,
+        plot_sweep,
+        stratified_subset,
+        sweep_dims,
+    )
+    # deferred: as above
+    from retrieval.features import get_feature_set, register_feature_set, storybeam_feature_set
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in METHODS]
     if bad or not methods:
         raise StoryBeamError(f"--methods: unknown {', '.join(bad) or '(none given)'} (choose from {', '.join(METHODS)})")
+    splits = [s.strip() for s in args.split.split(",") if s.strip()]
+    if not splits or any(s not in SPLITS for s in splits):
+        raise StoryBeamError(f"--split: expected a comma list of {', '.join(SPLITS)}, got {args.split!r}")
     if args.folds < 2:
         raise StoryBeamError("--folds must be at least 2")
+    if args.shortlist is not None and args.shortlist < 1:
+        raise StoryBeamError("--shortlist must be at least 1")
     sweep = parse_range(args.sweep_dims) if args.sweep_dims else None
+    feature_set = "mr17"
+    if any(m not in SEED_METHODS for m in methods) and args.features == "storybeam":
+        feature_set = "storybeam"
+        if args.heading_weight is not None or args.normalise is not None or args.centre is not None:
+            base = get_feature_set("storybeam")
+            w = base.specs[-1].weight if args.heading_weight is None else args.heading_weight
+            norm = args.normalise or base.normalise
+            centre = base.centre if args.centre is None else args.centre == "on"
+            feature_set = register_feature_set(storybeam_feature_set(
+                w, f"storybeam-w{w:g}-{norm}-{'centred' if centre else 'raw'}", norm, centre)).name
     started = time.perf_counter()
     rows = read_labels(args.data)
-    clips = load_dataset(args.data, fps=args.fps, cache=not args.no_cache, rows=rows, pose="forbes" in methods,
+    clips = load_dataset(args.data, fps=args.fps, feature_set=feature_set, cache=not args.no_cache, rows=rows,
+                         pose="forbes" in methods,
                          progress=progress_bar(f"loading {Path(args.data).name}", "clip", not args.quiet))
     load_seconds = time.perf_counter() - started
     if args.subset:
         clips = stratified_subset(clips, args.subset, args.seed)
     motion_seconds = sum(c.seconds for c in clips)
-    res = evaluate(clips, methods, args.folds, args.dims, args.seed, args.band, args.forbes_clusters,
-                   progress=progress_bar("evaluating", "fold", not args.quiet), backend=args.backend)
+    if args.identity:
+        if args.subset:
+            raise StoryBeamError("--identity uses the whole folder: drop --subset")
+        ident = identity_check(rows, clips, args.fps, feature_set, args.identity_fps, args.shortlist, args.dims,
+                               progress_bar("identity round trips", "clip", not args.quiet))
+        print(f"{ident['clips']} clips written as BVH on another skeleton at {args.identity_fps:g} fps and read back: "
+              f"found first: storybeam {100 * ident['storybeam_top1']:.2f} %, "
+              f"quantized {100 * ident['quantized_top1']:.2f} % "
+              f"(mean {ident['quantized_mean_ties_at_best']:.2f} clips tie at the seed's best distance)")
+        if args.json_out:
+            write_json_report(args.json_out, {"data": str(args.data), "fps": args.fps, "dims": args.dims,
+                                              "feature_set": feature_set, "identity": ident})
+        return 0
+    per_split = {}
+    for split in splits:
+        kw = {"shortlist": args.shortlist} if args.shortlist else {}
+        res = evaluate(clips, methods, args.folds, args.dims, args.seed, args.band, args.forbes_clusters,
+                       progress=progress_bar(f"evaluating ({split} split)", "fold", not args.quiet),
+                       backend=args.backend, split=split, **kw)
+        per_split[split] = {n: r.as_dict() for n, r in res.items()}
     out = {
         "n_clips": len(clips),
         "total_seconds": motion_seconds,
@@ -102,19 +250,32 @@ def run(args) -> int:
         "seed": args.seed,
         "subset": args.subset,
         "backend": args.backend,
+        "split": splits[0],
+        "feature_set": feature_set,
+        "shortlist": args.shortlist,
         "classes": {c: sum(x.label == c for x in clips) for c in sorted({x.label for x in clips})},
+        "subjects": {s: sum(x.subject == s for x in clips) for s in sorted({x.subject for x in clips})},
         "load_seconds": load_seconds,
-        "methods": {n: {k: v for k, v in r.as_dict().items()} for n, r in res.items()},
+        "methods": per_split[splits[0]],
+        "splits": {s: {"methods": per_split[s], **speed_ratios(per_split[s])} for s in splits},
     }
-    print(format_table(out["methods"], len(clips), motion_seconds))
-    for q in ("quantized-fast", "quantized"):
-        if q in res and "dtw" in res and res[q].search_seconds > 0:
-            ratio = res["dtw"].search_seconds / res[q].search_seconds
-            cpu_ratio = res["dtw"].extra["search_cpu_seconds"] / max(res[q].extra["search_cpu_seconds"], 1e-12)
-            key = "quantized" if q == "quantized" else "quantized_fast"
-            out[f"dtw_over_{key}_search_time"] = ratio
-            out[f"dtw_over_{key}_search_cpu_time"] = cpu_ratio
-            print(f"exact DTW search / {q} search: {ratio:.1f}x wall, {cpu_ratio:.1f}x CPU")
+    out.update(speed_ratios(per_split[splits[0]]))
+    for split in splits:
+        if len(splits) > 1:
+            print(f"\n== {split} split ==")
+        print(format_table(per_split[split], len(clips), motion_seconds))
+        for key, ratio in speed_ratios(per_split[split]).items():
+            if key.endswith("_search_time"):
+                cpu = out["splits"][split][key.replace("_search_time", "_search_cpu_time")]
+                print(f"{key.replace('_', ' ')}: {ratio:.1f}x wall, {cpu:.1f}x CPU")
+    if len(splits) > 1:
+        print("\n" + format_splits(per_split))
+    if args.plots:
+        out["confusion_plots"] = []
+        for split in splits:
+            out["confusion_plots"] += plot_confusion(per_split[split], args.plots, f"confusion_{split}",
+                                                     f"{Path(args.data).name}, {split} split, ")
+        print("plots: " + ", ".join(out["confusion_plots"]))
     if sweep:
         out["sweep"] = sweep_dims(clips, sweep, args.folds, args.seed, args.band,
                                   progress=progress_bar("sweeping n", "n", not args.quiet),

@@ -17,6 +17,18 @@ quantiser); ``search_ms`` the time from the query's codes to the answer (the ind
 search alone), both by :func:`time.perf_counter`. Before them one search for an indexed
 clip loads the compiled kernels (from numba's cache; compiling them if the cache is
 empty, see docs/retrieval-speed.md): ``kernels_ms``.
+
+``--pose FILE:FRAME`` searches by pose instead (:class:`retrieval.library.PoseSearch`):
+the posture at frame FRAME of the motion file (counted in the file's own frame rate, from
+0) is turned into the library's features — computed over the whole file, so heights are
+above its floor — and the clips passing closest through it are reported with the frame
+where they do::
+
+  {"query", "data", "mode": "pose", "pose_frame", "results": [{"rank", "trial", "label",
+   "frame", "distance", "code_distance"}], "search_ms", "backend", "clips"}
+
+``search_ms`` is the time from the pose's features to the answer (code search and
+refinement). A pose search needs a labelled folder (a saved index keeps no features).
 """
 from __future__ import annotations
 
@@ -37,7 +49,9 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("search", help="find the library clips nearest to a motion file",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", default=str(DEFAULT_LIBRARY), help="labelled folder or saved index (default: bundled library)")
-    p.add_argument("--query", required=True, help="motion file (.bvh, or .amc with --skeleton)")
+    p.add_argument("--query", help="motion file (.bvh, or .amc with --skeleton)")
+    p.add_argument("--pose", metavar="FILE:FRAME",
+                   help="search by the pose at frame FRAME of a motion file (instead of --query)")
     p.add_argument("--skeleton", help="ASF skeleton for an AMC query")
     p.add_argument("-k", "--top", type=int, default=5, help="how many clips to report (default 5)")
     p.add_argument("--subsequence", action="store_true",
@@ -63,6 +77,10 @@ def run(args) -> int:
         raise StoryBeamError(f"-k/--top must be at least 1, got {args.top}")
     if not data.exists():
         raise StoryBeamError(f"--data {data}: not found")
+    if (args.query is None) == (args.pose is None):
+        raise StoryBeamError("give one of --query FILE or --pose FILE:FRAME")
+    if args.pose is not None:
+        return _run_pose(args, data, load_motion)
     query_path = Path(args.query)
     if not query_path.is_file():
         raise StoryBeamError(f"--query {query_path}: not found")
@@ -73,22 +91,30 @@ def run(args) -> int:
 
     # load the compiled kernels (from numba's cache, or compile them on a fresh install)
     # with one search for an indexed clip, outside the timings: search_ms is the search.
+    # The storybeam method (the default) answers a nearest search by exact float DTW among
+    # the code shortlist; the subsequence search and a quantized index use the codes alone.
+    by_features = index.method == "storybeam" and not args.subsequence
     tw = time.perf_counter()
-    index.subsequence_codes(index.codes[0], k=1) if args.subsequence else index.query_codes(index.codes[0], k=1)
-    t0 = time.perf_counter()
-    codes = index.encode(motion)
-    t1 = time.perf_counter()
-    if args.subsequence:
-        matches = index.subsequence_codes(codes, k=args.top)
+    if by_features:
+        index.query(index.clip_features[0], k=1)
     else:
-        matches = index.query_codes(codes, k=args.top)
+        index.subsequence_codes(index.codes[0], k=1) if args.subsequence else index.query_codes(index.codes[0], k=1)
+    t0 = time.perf_counter()
+    encoded = index.features(motion) if by_features else index.encode(motion)
+    t1 = time.perf_counter()
+    if by_features:
+        matches = index.query(encoded, k=args.top)
+    elif args.subsequence:
+        matches = index.subsequence_codes(encoded, k=args.top)
+    else:
+        matches = index.query_codes(encoded, k=args.top)
     t2 = time.perf_counter()
 
     report = {
         "query": str(query_path), "data": str(data), "mode": "subsequence" if args.subsequence else "nearest",
         "results": [{"rank": i, **m.as_dict()} for i, m in enumerate(matches, 1)],
         "search_ms": (t2 - t1) * 1e3, "encode_ms": (t1 - t0) * 1e3, "kernels_ms": (t0 - tw) * 1e3,
-        "backend": index.backend, "clips": len(index),
+        "backend": index.backend, "clips": len(index), "method": index.method,
     }
     to_stdout = args.json_out == "-"
     if not to_stdout:
@@ -96,6 +122,50 @@ def run(args) -> int:
         print(f"{len(index)} clips, search {report['search_ms']:.2f} ms ({index.backend}), "
               f"encode {report['encode_ms']:.2f} ms, kernels {report['kernels_ms']:.0f} ms")
     if to_stdout:
+        json.dump(report, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    elif args.json_out:
+        write_json_report(args.json_out, report)
+    return 0
+
+
+def _run_pose(args, data: Path, load_motion) -> int:
+    """``--pose FILE:FRAME``: the pose's features, the pose search, the report."""
+    from retrieval.library import MotionIndex, PoseSearch, clip_from_motion  # deferred: loads numba, only to search
+
+    file, sep, frame_text = args.pose.rpartition(":")
+    try:
+        frame = int(frame_text)
+    except ValueError:
+        frame = -1
+    if not sep or not file or frame < 0:
+        raise StoryBeamError(f"--pose {args.pose!r}: expected FILE:FRAME with FRAME a whole number >= 0")
+    path = Path(file)
+    if not path.is_file():
+        raise StoryBeamError(f"--pose {path}: not found")
+    if MotionIndex.is_index(data):
+        raise StoryBeamError(f"--data {data}: a pose search needs a labelled folder, not a saved index")
+    search = PoseSearch.build(data, args.dims, args.fps)
+    motion = load_motion(path, args.skeleton) if args.skeleton else load_motion(path)
+    if frame >= motion.n_frames:
+        raise StoryBeamError(f"--pose {path}: frame {frame} is past the last frame ({motion.n_frames - 1})")
+    feats = clip_from_motion(motion, path.stem, "", search.index.fps, search.index.feature_set).features
+    row = min(int(round(frame * search.index.fps / motion.fps)), len(feats) - 1)
+    search.search(feats[row], k=1)  # loads the compiled kernels, outside the timing
+    t0 = time.perf_counter()
+    hits = search.search(feats[row], k=args.top)
+    t1 = time.perf_counter()
+    report = {
+        "query": str(path), "data": str(data), "mode": "pose", "pose_frame": frame,
+        "results": [{"rank": i, **h.as_dict()} for i, h in enumerate(hits, 1)],
+        "search_ms": (t1 - t0) * 1e3, "backend": search.index.backend, "clips": len(search),
+    }
+    if args.json_out != "-":
+        print(f"{'rank':>4}  {'trial':<16} {'label':<10} distance  frame")
+        for i, h in enumerate(hits, 1):
+            print(f"{i:>4}  {h.trial:<16} {h.label:<10} {h.distance:.5f} {h.frame:>6}")
+        print(f"{len(search)} clips, search {report['search_ms']:.2f} ms ({search.index.backend})")
+    if args.json_out == "-":
         json.dump(report, sys.stdout, indent=1)
         sys.stdout.write("\n")
     elif args.json_out:

@@ -10,13 +10,17 @@ from retrieval.experiment.baselines import (
 )
 from retrieval.experiment.evaluation import (
     METHODS,
+    SEED_METHODS,
+    SPLITS,
     EvaluationError,
     MethodResult,
     evaluate,
     make_matcher,
+    plot_confusion,
     plot_sweep,
     stratified_folds,
     stratified_subset,
+    subject_folds,
     sweep_dims,
     warm_up,
 )
@@ -25,6 +29,7 @@ from retrieval.experiment.matchers import (
     Matcher,
     MatcherError,
     QuantizedMatcher,
+    StoryBeamMatcher,
     stack_frames,
 )
 
@@ -34,10 +39,14 @@ __all__ = [
     "stack_frames",
     "QuantizedMatcher",
     "FastMatcher",
+    "StoryBeamMatcher",
     "kmeans_pp_seeds",
     "ExactDTWMatcher",
     "ForbesFiumeMatcher",
     "METHODS",
+    "SEED_METHODS",
+    "SPLITS",
+    "subject_folds",
     "EvaluationError",
     "MethodResult",
     "stratified_folds",
@@ -46,5 +55,6 @@ __all__ = [
     "evaluate",
     "sweep_dims",
     "plot_sweep",
+    "plot_confusion",
     "warm_up",
 ]

@@ -13,6 +13,16 @@ answered by all methods back to back, so load from other processes on a shared m
 hits all methods alike. Search time includes turning the query's features into codes
 (projection + thresholds, or k-d tree look-ups).
 
+Protocols: ``split="random"`` is the research's stratified k-fold split; ``split="subject"``
+leaves one ``subject`` group out at a time (:func:`subject_folds`: the performer on CMU,
+the style on bandai2), so no take of the query's performer or style is among the
+references.
+
+Feature sets: the seed's methods (``quantized``, ``quantized-fast``, ``dtw``, ``forbes``)
+always see the 17 MR17 columns; ``storybeam`` and ``dtw-storybeam`` (exact DTW on the
+same features as ``storybeam``) see every column the clips carry — the ``"storybeam"``
+set (MR17 + turning rate) when loaded by ``storybeam eval``.
+
 Reported per method: accuracy, balanced accuracy (mean of per-class recalls — the classes
 are unbalanced, kicks are scarce), per-class accuracy, search and build seconds.
 :func:`sweep_dims` repeats the proposed method for n = 1..7 and records the cumulative
@@ -21,7 +31,7 @@ contribution ratio (mean over folds) beside accuracy and time.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -31,14 +41,21 @@ from retrieval.codes import code_table, full_table
 from retrieval.dtw import dtw_codes, dtw_features
 from retrieval.errors import StoryBeamError
 from retrieval.experiment.baselines import ExactDTWMatcher, ForbesFiumeMatcher
-from retrieval.experiment.matchers import FastMatcher, QuantizedMatcher
-from retrieval.library import Clip
+from retrieval.experiment.matchers import FastMatcher, QuantizedMatcher, StoryBeamMatcher
+from retrieval.features import MR17
+from retrieval.library import SHORTLIST, Clip, dtw_features_abandon
 from retrieval.search import warm_up as warm_up_fast
 
 #: "quantized" is the research's method as it describes it (full 4ⁿ×4ⁿ table, DTW against
 #: every reference); "quantized-fast" gives bit-identical distances from a 20 KiB table with
 #: lower bounds, early abandoning and run-length DTW (docs/retrieval-speed.md).
-METHODS = ("quantized-fast", "quantized", "dtw", "forbes")
+METHODS = ("storybeam", "dtw-storybeam", "quantized-fast", "quantized", "dtw", "forbes")
+
+#: The methods that run on the seed's 17 MR17 columns only.
+SEED_METHODS = ("quantized-fast", "quantized", "dtw", "forbes")
+
+#: Protocols of :func:`evaluate`.
+SPLITS = ("random", "subject")
 
 
 class EvaluationError(StoryBeamError):
@@ -64,16 +81,32 @@ def stratified_folds(labels: Sequence[str], folds: int, seed: int = 0) -> list[n
     return [np.array(sorted(p), dtype=np.int64) for p in parts]
 
 
+def subject_folds(subjects: Sequence[str]) -> list[np.ndarray]:
+    """Leave-one-group-out: one fold per distinct ``subject`` (sorted), holding that
+    group's clips. Raises when a clip has no subject or there are fewer than 2 groups."""
+    subjects = np.asarray(subjects)
+    if len(subjects) and np.any(subjects == ""):
+        raise EvaluationError("--split subject: some clips have no subject (labels.csv needs a 'subject' column)")
+    groups = sorted(set(subjects.tolist()))
+    if len(groups) < 2:
+        raise EvaluationError(f"--split subject needs at least 2 subject groups, got {len(groups)}")
+    return [np.flatnonzero(subjects == g).astype(np.int64) for g in groups]
+
+
 def make_matcher(name: str, dims: int = 6, band: int | None = None, forbes_clusters: int | None = None,
-                 seed: int = 0, backend: str = "auto"):
+                 seed: int = 0, backend: str = "auto", shortlist: int = SHORTLIST):
     """A fresh matcher for a method name. Forbes–Fiume's k defaults to 4ⁿ capped at 1024
     (k-means cost grows with k × frames; the cap is reported with the results)."""
     if name == "quantized":
         return QuantizedMatcher(dims, band, backend)
     if name == "quantized-fast":
         return FastMatcher(dims=dims, band=band, backend=backend)
-    if name == "dtw":
-        return ExactDTWMatcher(band, backend)
+    if name in ("dtw", "dtw-storybeam"):
+        m = ExactDTWMatcher(band, backend)
+        m.name = name
+        return m
+    if name == "storybeam":
+        return StoryBeamMatcher(dims, band, shortlist, backend)
     if name == "forbes":
         k = forbes_clusters if forbes_clusters else min(4**dims, 1024)
         return ForbesFiumeMatcher(clusters=k, band=band, backend=backend, seed=seed)
@@ -90,8 +123,10 @@ def warm_up(methods: Sequence[str] = METHODS) -> None:
     dtw_codes(c, c, split)
     x = np.zeros((3, 2))
     dtw_features(x, x)
-    if "quantized-fast" in methods:
+    if "quantized-fast" in methods or "storybeam" in methods:
         warm_up_fast()
+    if "storybeam" in methods:
+        dtw_features_abandon(x, x, 1.0)
 
 
 @dataclass
@@ -99,6 +134,7 @@ class MethodResult:
     name: str
     correct: int = 0
     total: int = 0
+    confusion: dict[str, dict[str, int]] = field(default_factory=dict)
     search_seconds: float = 0.0
     build_seconds: float = 0.0
     per_class_correct: dict[str, int] = field(default_factory=dict)
@@ -130,6 +166,7 @@ class MethodResult:
             "per_class": self.per_class,
             "correct": self.correct,
             "queries": self.total,
+            "confusion": self.confusion,
             **self.extra,
         }
 
@@ -155,14 +192,21 @@ def stratified_subset(clips: Sequence[Clip], size: int, seed: int = 0) -> list[C
 def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int = 3, dims: int = 6,
              seed: int = 0, band: int | None = None, forbes_clusters: int | None = None,
              progress: Callable[[int, int], None] | None = None, matcher_factory: Callable | None = None,
-             backend: str = "auto") -> dict[str, MethodResult]:
+             backend: str = "auto", split: str = "random", shortlist: int = SHORTLIST) -> dict[str, MethodResult]:
     """Run the k-fold 1-NN protocol for each method; returns results keyed by method.
-    ``progress(done, total)`` is called after each fold."""
+    ``split``: "random" (stratified ``folds``) or "subject" (leave one subject group out;
+    ``folds`` is then ignored). ``progress(done, total)`` is called after each fold."""
     for m in methods:
         if m not in METHODS and matcher_factory is None:
             raise EvaluationError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
+    if split not in SPLITS:
+        raise EvaluationError(f"unknown split {split!r} (choose from {', '.join(SPLITS)})")
     labels = [c.label for c in clips]
-    parts = stratified_folds(labels, folds, seed)
+    parts = stratified_folds(labels, folds, seed) if split == "random" else subject_folds([c.subject for c in clips])
+    # the seed's methods see the MR17 columns only (a clip of the "storybeam" set carries them first)
+    seed_view = list(clips)
+    if clips and clips[0].features.shape[1] > MR17.dim:
+        seed_view = [replace(c, features=c.features[:, : MR17.dim]) for c in clips]
     warm_up(methods)
     results = {m: MethodResult(m) for m in methods}
     for f, query_idx in enumerate(parts):
@@ -171,10 +215,12 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
         factory = matcher_factory or make_matcher
         matchers = {}
         for name in methods:  # build phase, timed per method
+            kw = {"shortlist": shortlist} if name == "storybeam" and matcher_factory is None else {}
             matcher = factory(name, dims=dims, band=band, forbes_clusters=forbes_clusters, seed=seed + f,
-                              backend=backend)
+                              backend=backend, **kw)
+            view = seed_view if name in SEED_METHODS else clips
             t0, c0 = time.perf_counter(), time.process_time()
-            matcher.fit(refs)
+            matcher.fit([view[i] for i in ref_idx])
             results[name].build_seconds += time.perf_counter() - t0
             results[name].extra["build_cpu_seconds"] = (results[name].extra.get("build_cpu_seconds", 0.0)
                                                         + time.process_time() - c0)
@@ -187,8 +233,9 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
             for k in range(len(methods)):
                 name = methods[(qn + k) % len(methods)]
                 r = results[name]
+                query = (seed_view if name in SEED_METHODS else clips)[q]
                 t0, c0 = time.perf_counter(), time.process_time()
-                nearest = int(np.argmin(matchers[name].distances(clips[q])))
+                nearest = int(np.argmin(matchers[name].distances(query)))
                 r.search_seconds += time.perf_counter() - t0
                 r.extra["search_cpu_seconds"] = r.extra.get("search_cpu_seconds", 0.0) + time.process_time() - c0
                 r.extra["dtw_cells"] = r.extra.get("dtw_cells", 0) + clips[q].n_frames * ref_frames
@@ -198,6 +245,8 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
                 r.per_class_total[truth] = r.per_class_total.get(truth, 0) + 1
                 r.per_class_correct[truth] = r.per_class_correct.get(truth, 0) + (truth == guess)
                 r.predictions[clips[q].trial] = refs[nearest].trial
+                row = r.confusion.setdefault(truth, {})
+                row[guess] = row.get(guess, 0) + 1
         for name in methods:
             m, r = matchers[name], results[name]
             if name == "quantized":
@@ -273,4 +322,44 @@ def plot_sweep(rows: Sequence[dict], folder) -> list[str]:
         fig.savefig(out / fname)
         plt.close(fig)
         paths.append(str(out / fname))
+    return paths
+
+
+def plot_confusion(results: dict[str, dict], folder, prefix: str = "confusion", title: str = "") -> list[str]:
+    """One confusion-matrix PNG per method (rows: true class, columns: the nearest
+    reference's class; cells: query counts, rows also as % of the class) from the
+    ``as_dict()`` results of :func:`evaluate`; file names ``{prefix}_{method}.png``."""
+    import matplotlib  # optional: matplotlib (plots only; absent on the tablet)
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # optional: matplotlib
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, res in results.items():
+        conf = res.get("confusion") or {}
+        classes = sorted(set(conf) | {g for row in conf.values() for g in row})
+        if not classes:
+            continue
+        m = np.array([[conf.get(t, {}).get(g, 0) for g in classes] for t in classes], dtype=float)
+        share = m / np.maximum(m.sum(axis=1, keepdims=True), 1)
+        size = 1.6 + 0.45 * len(classes)
+        fig, ax = plt.subplots(figsize=(size + 1.2, size), dpi=100)
+        ax.imshow(share, cmap="Blues", vmin=0, vmax=1)
+        for i in range(len(classes)):
+            for j in range(len(classes)):
+                if m[i, j]:
+                    ax.text(j, i, f"{int(m[i, j])}", ha="center", va="center", fontsize=7,
+                            color="white" if share[i, j] > 0.6 else "black")
+        ax.set_xticks(range(len(classes)), classes, rotation=60, ha="right", fontsize=7)
+        ax.set_yticks(range(len(classes)), classes, fontsize=7)
+        ax.set_xlabel("nearest reference's class")
+        ax.set_ylabel("true class")
+        ax.set_title(f"{title}{name}: {100 * res['accuracy']:.1f} %", fontsize=9)
+        fig.tight_layout()
+        path = out / f"{prefix}_{name}.png"
+        fig.savefig(path)
+        plt.close(fig)
+        paths.append(str(path))
     return paths

@@ -3,6 +3,7 @@
 vectors of the Forbes–Fiume baseline (:mod:`~retrieval.features.pose_vectors`)."""
 from __future__ import annotations
 
+from retrieval.features.kinetic import BODY_PARTS, kinetic_energy, kinetic_energy_from_positions
 from retrieval.features.pose_vectors import JOINT_WEIGHTS, pose_frames
 from retrieval.features.relational import (
     MR17,
@@ -13,14 +14,23 @@ from retrieval.features.relational import (
     get_feature_set,
     leg_length,
     motion_features,
+    HEADING_SMOOTH_SECONDS,
+    heading_rate,
     register_feature_set,
 )
+from retrieval.features.storybeam_set import HEADING_WEIGHT, STORYBEAM, mr17_columns, storybeam_feature_set
 
 __all__ = [
     "FeatureError",
     "FeatureSpec",
     "FeatureSet",
     "MR17",
+    "STORYBEAM",
+    "HEADING_WEIGHT",
+    "storybeam_feature_set",
+    "mr17_columns",
+    "heading_rate",
+    "HEADING_SMOOTH_SECONDS",
     "leg_length",
     "register_feature_set",
     "get_feature_set",
@@ -28,4 +38,7 @@ __all__ = [
     "motion_features",
     "JOINT_WEIGHTS",
     "pose_frames",
+    "BODY_PARTS",
+    "kinetic_energy",
+    "kinetic_energy_from_positions",
 ]

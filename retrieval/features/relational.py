@@ -56,11 +56,14 @@ so an index records which set it was built with and an experiment can try anothe
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 
 from retrieval.errors import StoryBeamError
 from retrieval.motion import (
+    CANONICAL_PARENTS,
     Motion,
     Skeleton,
     canonical_joint_map,
@@ -81,13 +84,16 @@ class FeatureError(StoryBeamError):
 
 @dataclass(frozen=True)
 class FeatureSpec:
-    """One feature: ``kind`` is "distance" (|a−b|), "height" (a above the clip's floor)
-    or "above" (signed vertical offset a.y − b.y); ``joints`` are canonical joint names."""
+    """One feature: ``kind`` is "distance" (|a−b|), "height" (a above the clip's floor),
+    "above" (signed vertical offset a.y − b.y) or "heading_rate" (the body's turning rate,
+    see :func:`heading_rate`; joints are left hip, right hip, left shoulder, right
+    shoulder); ``joints`` are canonical joint names; ``weight`` multiplies the value."""
 
     name: str
     kind: str
     joints: tuple[str, ...]
     why: str = ""
+    weight: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -97,6 +103,15 @@ class FeatureSet:
     name: str
     specs: tuple[FeatureSpec, ...]
     description: str = ""
+    #: "legs": every length divided by the leg length (MR17); "arms": a feature that
+    #: involves a hand or an elbow divided by the arm length (:func:`arm_length`), every
+    #: other by the leg length; "chain": a distance or vertical offset between joints a
+    #: and b divided by the rest-pose length of the canonical chain joining them (see
+    #: :func:`chain_length`), heights by the leg length.
+    normalise: str = "legs"
+    #: Subtract each column's mean over the clip (a per-clip constant offset — what a
+    #: different skeleton's proportions and joint placement mostly add — cancels).
+    centre: bool = False
 
     @property
     def dim(self) -> int:
@@ -112,11 +127,18 @@ class FeatureSet:
             used.update(_FOOT_JOINTS)
         return used
 
-    def from_positions(self, pos: np.ndarray, joint_map: dict[str, int], body_size: float) -> np.ndarray:
+    @property
+    def needs_fps(self) -> bool:
+        """Whether a feature is a rate (its value depends on the frame rate)."""
+        return any(s.kind == "heading_rate" for s in self.specs)
+
+    def from_positions(self, pos: np.ndarray, joint_map: dict[str, int], body_size: float,
+                       fps: float | None = None, rest: np.ndarray | None = None) -> np.ndarray:
         """(T, J, 3) positions in metres, Y up -> (T, dim) float64 features.
 
         ``joint_map`` maps canonical names to joint indices; ``body_size`` (metres) divides
-        every value.
+        every length (not the heading rate, which is an angle per second and needs ``fps``);
+        a set with ``normalise="chain"`` needs ``rest``, the (J, 3) rest-pose positions.
         """
         pos = np.asarray(pos, dtype=np.float64)
         if pos.ndim != 3 or pos.shape[2] != 3:
@@ -132,6 +154,23 @@ class FeatureSet:
 
         floor = None
         out = np.empty((pos.shape[0], self.dim))
+        scale = np.full(self.dim, 1.0 / body_size)
+        if self.normalise == "chain":
+            if rest is None:
+                raise FeatureError(f"feature set {self.name!r} divides by chain lengths: it needs the rest pose")
+            for k, spec in enumerate(self.specs):
+                if spec.kind in ("distance", "above"):
+                    length = chain_length(spec.joints[0], spec.joints[1], rest, joint_map)
+                    if not length > 1e-6:
+                        raise FeatureError(f"feature {spec.name!r}: zero rest length between {spec.joints}")
+                    scale[k] = 1.0 / length
+        elif self.normalise == "arms":
+            if rest is None:
+                raise FeatureError(f"feature set {self.name!r} divides by the arm length: it needs the rest pose")
+            arms = arm_length(rest, joint_map)
+            for k, spec in enumerate(self.specs):
+                if any(j.endswith(("_hand", "_elbow")) for j in spec.joints):
+                    scale[k] = 1.0 / arms
         for k, spec in enumerate(self.specs):
             if spec.kind == "distance":
                 a, b = spec.joints
@@ -143,9 +182,84 @@ class FeatureSet:
             elif spec.kind == "above":
                 a, b = spec.joints
                 out[:, k] = p(a)[:, 1] - p(b)[:, 1]
+            elif spec.kind == "heading_rate":
+                if fps is None or not fps > 0:
+                    raise FeatureError(f"feature {spec.name!r} is a rate: it needs the frame rate")
+                out[:, k] = heading_rate(pos, [joint_map[j] for j in spec.joints], fps)
+                scale[k] = 1.0
             else:  # guarded at registration, kept for hand-made sets
                 raise FeatureError(f"feature {spec.name!r}: unknown kind {spec.kind!r}")
-        return out / body_size
+        out = out * scale * np.array([s.weight for s in self.specs])
+        if self.centre and len(out):
+            out -= out.mean(axis=0)
+        return out
+
+
+#: Standard deviation (seconds) of the Gaussian that smooths the body's heading before
+#: its rate is taken: long enough to average out the pelvis's and shoulders' swing over a
+#: stride (about 1 s at a walk), short enough to keep a quarter turn (1–2 s) visible.
+HEADING_SMOOTH_SECONDS = 0.25
+
+
+def heading_rate(pos: np.ndarray, pairs: Sequence[int], fps: float,
+                 smooth_seconds: float = HEADING_SMOOTH_SECONDS) -> np.ndarray:
+    """(T,) signed turning rate of the body about the vertical, in radians per second
+    (positive = counter-clockwise seen from above, i.e. a left turn for a Y-up, Z-forward
+    body).
+
+    Method: ``pairs`` lists joint indices as (left, right) pairs (hips, shoulders); the
+    body's *across* direction is the sum of the unit horizontal left→right vectors of the
+    pairs, so pelvis and shoulder swing partly cancel. Its yaw angle is unwrapped, smoothed
+    with a Gaussian of ``smooth_seconds`` (edges reflected), and differentiated with
+    central differences times ``fps``. A rate rather than the heading itself, because the
+    heading depends on which way the performer happens to face (the features must not),
+    while its rate does not; the across vector of a rigid yaw rotates exactly with the
+    body, so the rate is invariant to bone lengths, units, root offset and the up axis's
+    horizontal frame, and it is resampled consistently (a rate, not a per-frame step)."""
+    pos = np.asarray(pos, dtype=np.float64)
+    across = np.zeros((pos.shape[0], 2))
+    for left, right in zip(pairs[0::2], pairs[1::2]):
+        v = pos[:, right][:, [0, 2]] - pos[:, left][:, [0, 2]]
+        n = np.linalg.norm(v, axis=1, keepdims=True)
+        across += np.divide(v, n, out=np.zeros_like(v), where=n > 1e-9)
+    if pos.shape[0] < 2:
+        return np.zeros(pos.shape[0])
+    yaw = np.unwrap(np.arctan2(-across[:, 1], across[:, 0]))
+    sigma = smooth_seconds * fps
+    if sigma > 0:
+        yaw = gaussian_filter1d(yaw, sigma, mode="nearest")
+    return np.gradient(yaw) * fps
+
+
+def arm_length(rest: np.ndarray, joint_map: dict[str, int]) -> float:
+    """Mean shoulder→elbow→hand length of both arms on the rest pose (metres)."""
+    total = 0.0
+    for side in ("left", "right"):
+        total += chain_length(f"{side}_shoulder", f"{side}_hand", rest, joint_map)
+    if not total > 1e-6:
+        raise FeatureError("zero arm length, cannot normalise")
+    return total / 2.0
+
+
+def chain_length(a: str, b: str, rest: np.ndarray, joint_map: dict[str, int]) -> float:
+    """Rest-pose length (metres) of the canonical chain joining canonical joints ``a`` and
+    ``b``: the sum of the distances between consecutive canonical joints on the tree path
+    a → common ancestor → b (:data:`~retrieval.motion.CANONICAL_PARENTS`), measured
+    between the joints they map to, so a file's extra joints (clavicles, twist bones)
+    do not count. Dividing a distance between a and b by it gives the fraction of the
+    chain's full reach — the same number for the same joint angles whatever the
+    performer's bone lengths, as long as the proportions *within* the chain agree."""
+    def up(j: str) -> list[str]:
+        out = [j]
+        while CANONICAL_PARENTS[out[-1]] is not None:
+            out.append(CANONICAL_PARENTS[out[-1]])
+        return out
+
+    pa, pb = up(a), up(b)
+    common = next(j for j in pa if j in pb)
+    path = pa[: pa.index(common) + 1] + pb[: pb.index(common)][::-1]
+    pts = rest[[joint_map[j] for j in path]]
+    return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
 
 
 def clip_floor(foot_heights: np.ndarray) -> float:
@@ -200,7 +314,7 @@ MR17 = FeatureSet(
 )
 
 _REGISTRY: dict[str, FeatureSet] = {}
-_KINDS = {"distance": 2, "height": 1, "above": 2}
+_KINDS = {"distance": 2, "height": 1, "above": 2, "heading_rate": 4}
 
 
 def register_feature_set(feature_set: FeatureSet) -> FeatureSet:
@@ -233,4 +347,5 @@ def motion_features(motion: Motion, feature_set: str | FeatureSet = "mr17") -> n
     """(T, dim) features of a motion: forward kinematics, canonical joints, leg length."""
     fs = get_feature_set(feature_set)
     jm = canonical_joint_map(motion.skeleton)
-    return fs.from_positions(positions(motion), jm, leg_length(motion.skeleton, jm))
+    return fs.from_positions(positions(motion), jm, leg_length(motion.skeleton, jm), motion.fps,
+                             rest_positions(motion.skeleton))

@@ -1,6 +1,7 @@
 """The motion library the product searches: clips from labelled folders, the saved index
 (:class:`MotionIndex`, the one search path), the choice of a clip for a story character,
-and the bundled library's builder."""
+the bundled library's builder, search by pose (:class:`PoseSearch`) and the library's
+unsupervised groups (:func:`group`)."""
 from __future__ import annotations
 
 from retrieval.library.bundle import SELECTION as BUNDLE_SELECTION
@@ -14,8 +15,33 @@ from retrieval.library.dataset import (
     load_row,
     read_labels,
 )
+from retrieval.library.grouping import (
+    K_MAX,
+    K_MIN,
+    FolderGrouping,
+    Group,
+    Grouping,
+    adjusted_rand_index,
+    clip_descriptor,
+    descriptor_matrix,
+    group,
+    group_folder,
+    load_energies,
+    purity,
+    silhouette,
+)
 from retrieval.library.index import MotionIndex
 from retrieval.library.motion_choice import choose_clip, clip_path
+from retrieval.library.rerank_kernel import dtw_features_abandon, dtw_features_gemm
+from retrieval.library.storybeam_search import DIMS as STORYBEAM_DIMS
+from retrieval.library.storybeam_search import SHORTLIST, Hit, StoryBeamSearcher
+from retrieval.library.pose_search import (
+    CHARACTERISTIC,
+    PoseHit,
+    PoseSearch,
+    characteristic_frame,
+    pose_features,
+)
 
 __all__ = [
     "Clip",
@@ -27,8 +53,32 @@ __all__ = [
     "load_row",
     "load_dataset",
     "MotionIndex",
+    "StoryBeamSearcher",
+    "Hit",
+    "SHORTLIST",
+    "STORYBEAM_DIMS",
+    "dtw_features_abandon",
+    "dtw_features_gemm",
     "choose_clip",
     "clip_path",
     "BUNDLE_SELECTION",
     "build_bundle",
+    "pose_features",
+    "PoseHit",
+    "PoseSearch",
+    "CHARACTERISTIC",
+    "characteristic_frame",
+    "K_MAX",
+    "K_MIN",
+    "Group",
+    "Grouping",
+    "clip_descriptor",
+    "descriptor_matrix",
+    "group",
+    "group_folder",
+    "FolderGrouping",
+    "load_energies",
+    "purity",
+    "adjusted_rand_index",
+    "silhouette",
 ]

@@ -10,7 +10,8 @@ import numpy as np
 class Clip:
     """One labelled clip, ready for matching: ``features`` (T, 17) relational features and,
     when asked for, ``pose`` (T, P) weighted pose-space vectors (only the Forbes–Fiume
-    baseline reads them), at ``fps``."""
+    baseline reads them), at ``fps``; ``subject`` is the performer or style group from
+    ``labels.csv`` (empty when unknown)."""
 
     trial: str
     label: str
@@ -18,6 +19,7 @@ class Clip:
     pose: np.ndarray | None
     fps: float
     source: str = ""
+    subject: str = ""
 
     @property
     def n_frames(self) -> int:

@@ -1,8 +1,9 @@
 """Labelled motion folders -> :class:`~retrieval.library.clip.Clip` lists.
 
 A folder holds ``labels.csv`` with at least the columns ``trial``, ``label``, ``file`` and
-``skeleton`` (the ASF for AMC files; empty for BVH); other columns are ignored and paths
-are relative to the folder. Every unusable row raises :class:`DatasetError` naming the CSV,
+``skeleton`` (the ASF for AMC files; empty for BVH); an optional ``subject`` column (the
+performer, or the style) is kept for the leave-one-subject-out protocol; other columns
+are ignored and paths are relative to the folder. Every unusable row raises :class:`DatasetError` naming the CSV,
 the row and the problem, before any slow loading starts.
 
 Loading runs forward kinematics once per clip and keeps the 17-D features, and the
@@ -24,7 +25,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from retrieval.errors import DatasetError, StoryBeamError
-from retrieval.features import get_feature_set, leg_length, pose_frames
+from retrieval.features import HEADING_SMOOTH_SECONDS, get_feature_set, leg_length, pose_frames
 from retrieval.library.clip import Clip
 from retrieval.motion import (
     Motion,
@@ -32,6 +33,7 @@ from retrieval.motion import (
     load_motion,
     positions,
     resample,
+    rest_positions,
 )
 
 REQUIRED_COLUMNS = ("trial", "label", "file", "skeleton")
@@ -45,6 +47,7 @@ class LabelRow:
     file: Path
     skeleton: Path | None
     line: int
+    subject: str = ""
 
 
 def default_cache_dir() -> Path:
@@ -82,7 +85,7 @@ def read_labels(folder: str | Path) -> list[LabelRow]:
                 raise DatasetError(f"{csv_path}, line {line}: skeleton file {skel_path} not found")
             if skel_path is None and path.suffix.lower() == ".amc":
                 raise DatasetError(f"{csv_path}, line {line}: AMC file {file} needs a skeleton (ASF) column")
-            rows.append(LabelRow(trial, label, path, skel_path, line))
+            rows.append(LabelRow(trial, label, path, skel_path, line, (rec.get("subject") or "").strip()))
     if not rows:
         raise DatasetError(f"{csv_path}: no rows")
     return rows
@@ -96,12 +99,16 @@ def clip_from_motion(motion: Motion, trial: str, label: str = "", fps: float | N
     jm = canonical_joint_map(motion.skeleton)
     size = leg_length(motion.skeleton, jm)
     pos = positions(motion)
-    feats = get_feature_set(feature_set).from_positions(pos, jm, size)
+    feats = get_feature_set(feature_set).from_positions(pos, jm, size, float(motion.fps),
+                                                        rest_positions(motion.skeleton))
     return Clip(trial, label, feats, pose_frames(pos, jm, size) if pose else None, float(motion.fps), source)
 
 
 def _cache_key(row: LabelRow, fps: float | None, feature_set: str) -> str:
     parts = [CACHE_VERSION, feature_set, repr(fps)]
+    fs = get_feature_set(feature_set)
+    if fs.needs_fps:  # a set with a rate: its weights and smoothing are part of what is cached
+        parts.append(repr(fs.specs) + repr(HEADING_SMOOTH_SECONDS) + fs.normalise + repr(fs.centre))
     for p in (row.file, row.skeleton):
         if p is not None:
             st = p.stat()
@@ -121,13 +128,15 @@ def load_row(row: LabelRow, fps: float | None = None, feature_set: str = "mr17",
                 with np.load(cache_file) as z:
                     cached_pose = z["pose"] if z["pose"].ndim == 2 else None
                     if cached_pose is not None or not pose:
-                        return Clip(row.trial, row.label, z["features"], cached_pose, float(z["fps"]), str(row.file))
+                        return Clip(row.trial, row.label, z["features"], cached_pose, float(z["fps"]), str(row.file),
+                                    row.subject)
             except Exception:  # a damaged cache entry is rebuilt, never fatal
                 pass
     load = loader or load_motion
     try:
         motion = load(row.file, row.skeleton) if row.skeleton else load(row.file)
         clip = clip_from_motion(motion, row.trial, row.label, fps, feature_set, str(row.file), pose=pose)
+        clip.subject = row.subject
     except StoryBeamError as exc:
         raise DatasetError(f"trial {row.trial} ({row.file}): {exc}") from exc
     if clip.n_frames < 2:

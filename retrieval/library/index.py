@@ -10,12 +10,27 @@ search (:mod:`retrieval.search`) over the 20 KiB difference table — never the 
 * :meth:`MotionIndex.subsequence` — the clips that pass through a short query, and where;
 * :meth:`MotionIndex.among` — the nearest clips within a subset (the motion choice's class).
 
-The answers are those of the seed's look-up DTW against every clip, sorted (same clips,
-same distances bit for bit, ties by library order); the tests check it against
-:mod:`retrieval.search.reference`. On disk an index is a folder with ``index.json``
-(format version, settings, trials, labels) and ``index.npz`` (quantiser arrays, all codes
-concatenated, per-clip offsets). Anything unreadable or inconsistent raises
-:class:`IndexFormatError` naming the file.
+Two methods (``method``):
+
+* ``"storybeam"`` — StoryBeam's own, the default of :meth:`MotionIndex.build` (the app,
+  ``storybeam search`` and the demo build with it): features of the ``"storybeam"`` set
+  (MR17 + turning rate), and :meth:`query` / :meth:`similar_to` answer by exact float DTW
+  among the code shortlist (:class:`~retrieval.library.storybeam_search.StoryBeamSearcher`),
+  so the shortlist's coarse ties are broken by an exact distance. The library's features
+  are kept at float32 precision (rounded when the index is built, so a saved and
+  reloaded index answers bit for bit the same; queries are rounded alike, so an indexed
+  clip is at distance exactly 0 from itself).
+* ``"quantized"`` — the seed's: the answers are those of the seed's look-up DTW against
+  every clip, sorted (same clips, same distances bit for bit, ties by library order);
+  the tests check it against :mod:`retrieval.search.reference`. The low-level
+  constructors (:meth:`from_clips`, :meth:`from_motions`) default to it.
+
+:meth:`subsequence`, :meth:`among` and the ``*_codes`` methods answer by code distance
+under either method. On disk an index is a folder with ``index.json`` (format version,
+method, settings, trials, labels) and ``index.npz`` (quantiser arrays, all codes
+concatenated, per-clip offsets, and for ``storybeam`` the float32 features). An index
+saved before the method existed loads as ``quantized``. Anything unreadable or
+inconsistent raises :class:`IndexFormatError` naming the file.
 """
 from __future__ import annotations
 
@@ -30,11 +45,13 @@ from retrieval.codes import DiffTable, Quantizer
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import clip_from_motion, load_dataset
+from retrieval.library.storybeam_search import SHORTLIST, StoryBeamSearcher
 from retrieval.motion import Motion
 from retrieval.search import FastSearcher, SubsequenceSearcher
 
 FORMAT = "storybeam-motion-index"
 VERSION = 1
+METHODS = ("storybeam", "quantized")
 JSON_NAME = "index.json"
 NPZ_NAME = "index.npz"
 
@@ -45,11 +62,20 @@ class MotionIndex:
     numpy path the tablet runs; both give the same answers)."""
 
     def __init__(self, quantizer: Quantizer, codes: Sequence[np.ndarray], trials: list[str], labels: list[str],
-                 fps: float, feature_set: str = "mr17", band: int | None = None, backend: str = "auto"):
+                 fps: float, feature_set: str = "mr17", band: int | None = None, backend: str = "auto",
+                 method: str = "quantized", features: Sequence[np.ndarray] | None = None,
+                 shortlist: int = SHORTLIST):
         if not (len(trials) == len(labels) == len(codes)):
             raise StoryBeamError("index: trials, labels and codes differ in length")
         if not codes:
             raise StoryBeamError("cannot build an index from no clips")
+        if method not in METHODS:
+            raise StoryBeamError(f"index: unknown method {method!r} (choose from {', '.join(METHODS)})")
+        if method == "storybeam" and (features is None or len(features) != len(codes)
+                                      or any(len(f) != len(c) for f, c in zip(features, codes))):
+            raise StoryBeamError("index: the storybeam method needs one feature array per clip, as long as its codes")
+        self.method = method
+        self.shortlist = int(shortlist)
         self.quantizer = quantizer
         self.codes = [np.ascontiguousarray(c, dtype=np.int32) for c in codes]
         self.trials = list(trials)
@@ -59,6 +85,13 @@ class MotionIndex:
         self.band = band
         self.table = DiffTable.from_ratios(quantizer.ratios)
         self.searcher = FastSearcher(self.codes, self.table, band=band, backend=backend)
+        self._storybeam: StoryBeamSearcher | None = None
+        self.clip_features: list[np.ndarray] | None = None
+        if method == "storybeam":
+            # float32 precision, so that a saved and reloaded index answers bit for bit the same
+            self.clip_features = [np.asarray(f, dtype=np.float32).astype(np.float64) for f in features]
+            self._storybeam = StoryBeamSearcher(quantizer, self.codes, self.clip_features, shortlist, band, backend,
+                                                searcher=self.searcher)
         self._subsequence: SubsequenceSearcher | None = None
         self._subsets: dict[tuple[int, ...], FastSearcher] = {}  # fast searchers over subsets (see among)
         self._position = {t: i for i, t in enumerate(self.trials)}
@@ -66,7 +99,8 @@ class MotionIndex:
     # ------------------------------------------------------------------ building
     @classmethod
     def from_clips(cls, clips: Sequence[Clip], dims: int = 6, band: int | None = None,
-                   feature_set: str = "mr17", backend: str = "auto") -> "MotionIndex":
+                   feature_set: str = "mr17", backend: str = "auto", method: str = "quantized",
+                   shortlist: int = SHORTLIST) -> "MotionIndex":
         if not clips:
             raise StoryBeamError("cannot build an index from no clips")
         fps = {round(c.fps, 6) for c in clips}
@@ -75,22 +109,27 @@ class MotionIndex:
         quantizer = Quantizer.fit(np.concatenate([c.features for c in clips], axis=0), dims)
         codes = [quantizer.encode(c.features) for c in clips]
         return cls(quantizer, codes, [c.trial for c in clips], [c.label for c in clips], clips[0].fps,
-                   feature_set, band, backend)
+                   feature_set, band, backend, method, [c.features for c in clips] if method == "storybeam" else None,
+                   shortlist)
 
     @classmethod
     def build(cls, folder: str | Path, dims: int = 6, fps: float = 30.0, band: int | None = None,
-              feature_set: str = "mr17", progress: Callable[[int, int], None] | None = None) -> "MotionIndex":
+              feature_set: str | None = None, progress: Callable[[int, int], None] | None = None,
+              method: str = "storybeam") -> "MotionIndex":
         """Index every clip of a labelled folder (see :mod:`retrieval.library.dataset`) at
-        ``fps``; ``progress(done, total)`` is called after each clip."""
-        clips = load_dataset(folder, fps=fps, feature_set=feature_set, progress=progress)
-        return cls.from_clips(clips, dims, band, feature_set)
+        ``fps``; ``progress(done, total)`` is called after each clip. The feature set
+        defaults to the method's ("storybeam" for storybeam, "mr17" for quantized)."""
+        fset = feature_set or ("storybeam" if method == "storybeam" else "mr17")
+        clips = load_dataset(folder, fps=fps, feature_set=fset, progress=progress)
+        return cls.from_clips(clips, dims, band, fset, method=method)
 
     @classmethod
     def from_motions(cls, motions: Sequence[Motion], labels: Sequence[str] | None = None, dims: int = 6,
-                     fps: float = 30.0, band: int | None = None) -> "MotionIndex":
+                     fps: float = 30.0, band: int | None = None, method: str = "quantized") -> "MotionIndex":
         labels = list(labels) if labels is not None else [""] * len(motions)
-        clips = [clip_from_motion(m, m.name or f"clip{i}", labels[i], fps) for i, m in enumerate(motions)]
-        return cls.from_clips(clips, dims, band)
+        fset = "storybeam" if method == "storybeam" else "mr17"
+        clips = [clip_from_motion(m, m.name or f"clip{i}", labels[i], fps, fset) for i, m in enumerate(motions)]
+        return cls.from_clips(clips, dims, band, fset, method=method)
 
     # ------------------------------------------------------------------ searching
     def __len__(self) -> int:
@@ -169,7 +208,13 @@ class MotionIndex:
 
     def query(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
         """The ``k`` nearest clips to a motion (resampled to the index's fps) or to a
-        (frames, 17) feature array, nearest first."""
+        (frames, d) feature array of the index's feature set, nearest first (storybeam:
+        by exact float DTW among the code shortlist; quantized: by code DTW)."""
+        if self._storybeam is not None:
+            # the query at the library's float32 precision: a clip's own features give exactly 0
+            feats = np.asarray(self.features(query), dtype=np.float32).astype(np.float64)
+            hits = self._storybeam.search(feats, k)
+            return [Match(self.trials[h.index], self.labels[h.index], h.distance) for h in hits]
         return self.query_codes(self.encode(query), k)
 
     def query_codes(self, codes: np.ndarray, k: int = 5) -> list[Match]:
@@ -179,6 +224,9 @@ class MotionIndex:
     def similar_to(self, trial: str, k: int = 5) -> list[Match]:
         """The ``k`` clips nearest to an indexed clip (itself excluded)."""
         i = self.position(trial)
+        if self._storybeam is not None:
+            hits = self._storybeam.search(self.clip_features[i], k, codes=self.codes[i], exclude=i)
+            return [Match(self.trials[h.index], self.labels[h.index], h.distance) for h in hits]
         return self._nearest(self.codes[i], k, exclude=i)
 
     def subsequence(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
@@ -202,10 +250,12 @@ class MotionIndex:
         codes = self.codes
         offsets = np.cumsum([0] + [len(c) for c in codes]).astype(np.int64)
         arrays = self.quantizer.to_arrays()
+        if self.clip_features is not None:
+            arrays["features"] = np.concatenate(self.clip_features).astype(np.float32)
         np.savez_compressed(folder / NPZ_NAME, codes=np.concatenate(codes).astype(np.int32), offsets=offsets, **arrays)
         meta = {
             "format": FORMAT, "version": VERSION, "fps": self.fps, "dims": self.dims,
-            "band": self.band, "feature_set": self.feature_set,
+            "band": self.band, "feature_set": self.feature_set, "method": self.method, "shortlist": self.shortlist,
             "trials": self.trials, "labels": self.labels,
         }
         (folder / JSON_NAME).write_text(json.dumps(meta, indent=1))
@@ -232,6 +282,7 @@ class MotionIndex:
         try:
             trials, labels = list(meta["trials"]), list(meta["labels"])
             fps, band, fset = float(meta["fps"]), meta.get("band"), str(meta.get("feature_set", "mr17"))
+            method, shortlist = str(meta.get("method", "quantized")), int(meta.get("shortlist", SHORTLIST))
         except (KeyError, ValueError, TypeError) as exc:
             raise IndexFormatError(f"{jpath}: damaged index ({type(exc).__name__}: {exc})") from None
         try:
@@ -239,6 +290,7 @@ class MotionIndex:
                 arrays = {k: z[k] for k in z.files}
             quantizer = Quantizer.from_arrays(arrays)
             codes_all, offsets = arrays["codes"], arrays["offsets"]
+            feats_all = arrays["features"] if method == "storybeam" else None
         except FileNotFoundError:
             raise IndexFormatError(f"{npath}: not found") from None
         except (KeyError, ValueError, TypeError, OSError, EOFError, zipfile.BadZipFile) as exc:
@@ -248,5 +300,13 @@ class MotionIndex:
                 or offsets[-1] != len(codes_all) or np.any(np.diff(offsets) <= 0)
                 or (len(codes_all) and (codes_all.min() < 0 or codes_all.max() >= n_codes))):
             raise IndexFormatError(f"{npath}: codes, offsets and trials are inconsistent")
+        if feats_all is not None and (feats_all.ndim != 2 or len(feats_all) != len(codes_all)
+                                      or feats_all.shape[1] != quantizer.pca.mean.shape[0]):
+            raise IndexFormatError(f"{npath}: features and codes are inconsistent")
         codes = [codes_all[offsets[i]:offsets[i + 1]] for i in range(len(trials))]
-        return cls(quantizer, codes, trials, labels, fps, fset, band)
+        feats = None if feats_all is None else [feats_all[offsets[i]:offsets[i + 1]] for i in range(len(trials))]
+        try:
+            return cls(quantizer, codes, trials, labels, fps, fset, band, method=method, features=feats,
+                       shortlist=shortlist)
+        except StoryBeamError as exc:
+            raise IndexFormatError(f"{jpath}: {exc}") from None

@@ -25,7 +25,7 @@ def library(tmp_path_factory) -> Path:
     """9 clips, 3 per class, with different body sizes, phases, lengths and headings."""
     folder = tmp_path_factory.mktemp("lib")
     rng = np.random.default_rng(7)
-    rows = ["trial,label,file,skeleton,notes"]
+    rows = ["trial,label,subject,file,skeleton,notes"]
     for label, (arm, knee, bounce, period) in STYLES.items():
         for k in range(3):
             sk = make_skeleton(scale=float(rng.uniform(0.7, 1.1)))
@@ -34,7 +34,7 @@ def library(tmp_path_factory) -> Path:
                             heading_deg=float(rng.uniform(0, 360)))
             name = f"{label}_{k}"
             write_bvh(m, folder / f"{name}.bvh")
-            rows.append(f"{name},{label},{name}.bvh,,x")
+            rows.append(f"{name},{label},s{k},{name}.bvh,,x")
     (folder / "labels.csv").write_text("\n".join(rows) + "\n")
     return folder
 
@@ -76,7 +76,7 @@ def test_index_query_save_load(library, tmp_path):
     from retrieval.motion.formats import load_motion
 
     index = MotionIndex.build(library, dims=3, fps=30)
-    assert len(index) == 9
+    assert len(index) == 9 and index.method == "storybeam" and index.feature_set == "storybeam"
     hits = index.query(load_motion(library / "run_1.bvh"), k=3)
     assert hits[0].trial == "run_1" and hits[0].distance == pytest.approx(0.0, abs=1e-9)
     assert [h.distance for h in hits] == sorted(h.distance for h in hits)
@@ -85,8 +85,18 @@ def test_index_query_save_load(library, tmp_path):
 
     index.save(tmp_path / "idx")
     loaded = MotionIndex.load(tmp_path / "idx")
-    feats = load_dataset(library, fps=30)[2].features
-    assert loaded.query(feats, k=9) == index.query(feats, k=9)
+    feats = load_dataset(library, fps=30, feature_set="storybeam")[2].features
+    assert loaded.method == "storybeam" and loaded.query(feats, k=9) == index.query(feats, k=9)
+    assert loaded.similar_to("walk_0", k=3) == index.similar_to("walk_0", k=3)
+    # the seed's method on request, and an index saved before the method existed loads as it
+    seed = MotionIndex.build(library, dims=3, fps=30, method="quantized")
+    assert seed.method == "quantized" and seed.feature_set == "mr17"
+    meta = json.loads(seed.save(tmp_path / "old").joinpath("index.json").read_text())
+    del meta["method"], meta["shortlist"]
+    (tmp_path / "old" / "index.json").write_text(json.dumps(meta))
+    old = MotionIndex.load(tmp_path / "old")
+    seed_feats = load_dataset(library, fps=30)[2].features
+    assert old.method == "quantized" and old.query(seed_feats, k=9) == seed.query(seed_feats, k=9)
 
     (tmp_path / "idx" / "index.json").write_text("{not json")
     with pytest.raises(IndexFormatError):
@@ -148,6 +158,33 @@ def test_cli_json_shapes(library, tmp_path):
     # a saved index works as --data too
     rc = main(["search", "--data", str(tmp_path / "idx"), "--query", str(library / "wave_2.bvh"), "--json", str(res)])
     assert rc == 0 and json.loads(res.read_text())["results"][0]["trial"] == "wave_2"
+
+
+def test_cli_subject_split_confusion_plots_and_identity(library, tmp_path):
+    from app.cli import main
+
+    out = tmp_path / "eval.json"
+    rc = main(["eval", "--data", str(library), "--dims", "3", "--split", "random,subject", "--quiet",
+               "--methods", "storybeam,dtw-storybeam,quantized", "--json", str(out), "--plots", str(tmp_path / "p")])
+    assert rc == 0
+    data = json.loads(out.read_text())
+    assert set(data["splits"]) == {"random", "subject"} and data["feature_set"] == "storybeam"
+    assert data["subjects"] == {"s0": 3, "s1": 3, "s2": 3}
+    for split in ("random", "subject"):
+        methods = data["splits"][split]["methods"]
+        assert set(methods) == {"storybeam", "dtw-storybeam", "quantized"}
+        for m in methods.values():
+            assert m["queries"] == 9 and sum(sum(r.values()) for r in m["confusion"].values()) == 9
+        assert data["splits"][split]["dtw_storybeam_over_storybeam_search_time"] > 0
+    assert len(data["confusion_plots"]) == 6 and all(Path(p).is_file() for p in data["confusion_plots"])
+
+    ident = tmp_path / "identity.json"
+    assert main(["eval", "--data", str(library), "--dims", "3", "--identity", "--quiet", "--json", str(ident)]) == 0
+    found = json.loads(ident.read_text())["identity"]
+    # the synthetic takes of a class are near-duplicates: report, do not promise, identity here
+    assert found["clips"] == 9 and 0 <= found["quantized_top1"] <= 1
+    assert len(found["storybeam_misses"]) == round(9 * (1 - found["storybeam_top1"]))
+    assert main(["eval", "--data", str(library), "--split", "sideways", "--quiet"]) == 1
 
 
 def test_cli_reports_bad_input_as_one_line(library, capsys):

@@ -1,0 +1,242 @@
+"""StoryBeam's own retrieval: the turning-rate feature, features that agree across
+skeletons, the code-shortlist + float-DTW re-ranking against brute force, the early
+abandoning kernel, and the leave-one-subject-out protocol."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from retrieval.animation import BodyProportions, canonical_skeleton, retarget
+from retrieval.dtw import dtw_features
+from retrieval.experiment import evaluate, subject_folds
+from retrieval.experiment.evaluation import EvaluationError
+from retrieval.features import MR17, STORYBEAM, get_feature_set, heading_rate, motion_features
+from retrieval.library import Clip, StoryBeamSearcher, clip_from_motion, dtw_features_abandon, dtw_features_gemm
+from retrieval.motion import Joint, Motion, Skeleton, axis_rotation, load_motion, resample, save_bvh
+from retrieval.motion.body import JointMapError
+from tests.support.synthetic_motion import make_motion, make_skeleton
+
+ASSETS = Path(__file__).resolve().parents[2] / "assets" / "motions"
+
+
+def _turning(motion: Motion, degrees_per_second: float) -> Motion:
+    """``motion`` with its root yawed about the vertical at a constant rate."""
+    t = np.arange(motion.n_frames) / motion.fps
+    yaw = axis_rotation("y", np.radians(degrees_per_second) * t)
+    rot = motion.rotations.copy()
+    rot[:, 0] = yaw @ rot[:, 0]
+    return Motion(motion.skeleton, rot, motion.root_translation.copy(), motion.fps, "turning")
+
+
+# ------------------------------------------------------------------ the feature set
+def test_storybeam_set_is_mr17_plus_turning_rate():
+    fs = get_feature_set("storybeam")
+    assert fs is STORYBEAM and fs.dim == MR17.dim + 1 and fs.needs_fps and not MR17.needs_fps
+    assert fs.specs[: MR17.dim] == MR17.specs and fs.names[-1] == "heading_rate"
+    m = make_motion(make_skeleton())
+    f = motion_features(m, "storybeam")
+    np.testing.assert_array_equal(f[:, : MR17.dim], motion_features(m))  # the seed's columns, bit for bit
+
+
+@pytest.mark.parametrize("rate", [-60.0, 45.0])
+def test_heading_rate_measures_a_turn_with_its_sign(rate):
+    m = _turning(make_motion(make_skeleton(), frames=120, arm_swing=0, knee_bend=0), rate)
+    turn = motion_features(m, "storybeam")[:, -1] / STORYBEAM.specs[-1].weight
+    inner = turn[35:-35]  # away from the smoothing's edges (4 σ = 30 frames)
+    # positive = counter-clockwise seen from above (a left turn for a Z-forward body)
+    np.testing.assert_allclose(inner, np.radians(rate), rtol=1e-3)
+    straight = motion_features(make_motion(make_skeleton(), frames=120), "storybeam")[:, -1]
+    assert np.abs(straight).max() < 1e-9
+
+
+def test_heading_rate_is_invariant_to_size_units_up_axis_heading_and_frame_rate():
+    base = _turning(make_motion(make_skeleton(1.0), frames=120), 40.0)
+    others = [
+        _turning(make_motion(make_skeleton(0.6), frames=120), 40.0),            # smaller body
+        _turning(make_motion(make_skeleton(1.0), frames=120, heading_deg=120), 40.0),  # faces elsewhere
+    ]
+    fb = motion_features(base, "storybeam")
+    for o in others:
+        np.testing.assert_allclose(motion_features(o, "storybeam"), fb, atol=1e-9)
+    # a rate, not a per-frame step: at 60 fps the same turn reads the same rad/s
+    fast = _turning(make_motion(make_skeleton(1.0), frames=240, fps=60.0), 40.0)
+    inner = motion_features(fast, "storybeam")[60:-60, -1]
+    np.testing.assert_allclose(inner, fb[35:-35, -1].mean(), rtol=1e-3)
+
+
+def test_heading_rate_needs_the_frame_rate():
+    m = make_motion(make_skeleton())
+    from retrieval.features import FeatureError
+    from retrieval.motion import canonical_joint_map, positions
+
+    with pytest.raises(FeatureError, match="frame rate"):
+        STORYBEAM.from_positions(positions(m), canonical_joint_map(m.skeleton), 1.0)
+    assert heading_rate(np.zeros((1, 4, 3)), [0, 1, 2, 3], 30.0).shape == (1,)
+
+
+# ------------------------------------------------------------------ two skeletons
+#: Tolerances for the same motion retargeted onto two bodies. Same proportions at another
+#: size: identical up to rounding. Different proportions (a child with longer shins,
+#: shorter arms, wider shoulders): the retarget copies bone *directions*, so distances
+#: between limbs change with the limbs' relative lengths; measured on the bundled walk
+#: the largest difference is below these bounds (leg lengths; rad/s for the turn).
+SAME_SHAPE_ATOL = 1e-6
+OTHER_SHAPE_ATOL = 0.25
+OTHER_SHAPE_MEAN = 0.06
+TURN_ATOL = 0.05
+
+
+def test_same_motion_on_two_skeletons_gives_the_same_features(tmp_path):
+    walk = load_motion(ASSETS / "bvh" / "02_01.bvh")
+    adult = canonical_skeleton(BodyProportions(), 1.8, "adult")
+    small = canonical_skeleton(BodyProportions(), 1.1, "small")
+    child = canonical_skeleton(BodyProportions(thigh=0.23, shin=0.26, upper_arm=0.15, forearm=0.14,
+                                               shoulder_half_width=0.12, hip_half_width=0.07), 1.3, "child")
+    feats = {}
+    for sk in (adult, small, child):
+        moved = retarget(walk, sk)
+        # through StoryBeam's BVH writer and reader, at another frame rate
+        back = load_motion(save_bvh(resample(moved, 50.0), tmp_path / f"{sk.name}.bvh"))
+        feats[sk.name] = clip_from_motion(back, sk.name, "", 30.0, "storybeam").features
+    a, s, c = feats["adult"], feats["small"], feats["child"]
+    assert a.shape == s.shape == c.shape
+    np.testing.assert_allclose(s, a, atol=SAME_SHAPE_ATOL)
+    assert np.abs(c - a)[:, :-1].max() < OTHER_SHAPE_ATOL
+    assert np.abs(c - a)[:, :-1].mean() < OTHER_SHAPE_MEAN
+    assert np.abs(c - a)[:, -1].max() < TURN_ATOL
+    # and the source motion on its own (CMU) skeleton agrees with its retargeted copy
+    src = clip_from_motion(walk, "src", "", 30.0, "storybeam").features
+    n = min(len(src), len(a))  # 50 fps -> 30 fps may drop the last frame
+    assert np.abs(src[:n] - a[:n])[:, -1].max() < TURN_ATOL
+
+
+def test_unmappable_skeleton_is_refused_naming_the_missing_joints():
+    names = ["Hips", "Spine", "Neck", "Head", "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg", "RightFoot"]
+    parents = [-1, 0, 1, 2, 0, 4, 5, 0, 7, 8]
+    joints = [Joint(n, p, np.array([0.0, 10.0 * (i > 0), 0.0]), [], "ZYX") for i, (n, p) in enumerate(zip(names, parents))]
+    sk = Skeleton(joints, metres_per_unit=0.01, up_axis="y", name="armless")
+    m = Motion(sk, np.tile(np.eye(3), (5, len(joints), 1, 1)), np.zeros((5, 3)), 30.0)
+    with pytest.raises(JointMapError) as err:
+        clip_from_motion(m, "armless", "", 30.0, "storybeam")
+    for missing in ("left_shoulder", "left_hand", "right_elbow", "left_toe"):
+        assert missing in str(err.value)
+    assert "armless" in str(err.value)
+
+
+# ------------------------------------------------------------------ the search
+def _library(n: int = 24, seed: int = 3) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    walk = motion_features(make_motion(make_skeleton(), frames=240), "storybeam")
+    out = []
+    for i in range(n):
+        s = int(rng.integers(0, 120))
+        x = walk[s:s + int(rng.integers(25, 90))].copy()
+        x += rng.normal(scale=0.05, size=x.shape) * (1 + i % 3)
+        out.append(x)
+    return out
+
+
+@pytest.mark.parametrize("backend", ["auto", "numpy"])
+def test_rerank_kernel_equals_dtw_below_the_limit_and_abandons_above(backend):
+    rng = np.random.default_rng(1)
+    abandoned = 0
+    for t in range(60):
+        x, y = rng.normal(size=(int(rng.integers(1, 30)), 3)), rng.normal(size=(int(rng.integers(1, 30)), 3))
+        band = None if t % 2 else int(rng.integers(0, 4))
+        d = dtw_features(x, y, band)
+        assert dtw_features_abandon(x, y, np.inf, band, backend) == d
+        assert dtw_features_abandon(x, y, d, band, backend) == d  # a tie is never abandoned
+        low = dtw_features_abandon(x, y, 0.7 * d, band, backend)
+        assert low in (d, np.inf)
+        abandoned += low == np.inf
+    assert abandoned > 30  # the bound does fire
+
+
+def test_rerank_kernel_numpy_path_is_bit_identical_to_the_compiled_one():
+    pytest.importorskip("numba")
+    rng = np.random.default_rng(4)
+    for t in range(40):
+        x, y = rng.normal(size=(int(rng.integers(1, 40)), 18)), rng.normal(size=(int(rng.integers(1, 40)), 18))
+        band = None if t % 2 else int(rng.integers(0, 4))
+        assert dtw_features_abandon(x, y, np.inf, band, "numba") == dtw_features_abandon(x, y, np.inf, band, "numpy")
+
+
+@pytest.mark.parametrize("backend", ["auto", "numpy"])
+def test_gemm_kernel_is_dtw_up_to_rounding_and_exactly_zero_on_itself(backend):
+    rng = np.random.default_rng(2)
+    for t in range(40):
+        x = rng.normal(size=(int(rng.integers(1, 40)), 18)) * rng.uniform(0.1, 10)
+        y = rng.normal(size=(int(rng.integers(1, 40)), 18))
+        band = None if t % 2 else int(rng.integers(0, 4))
+        d = dtw_features(x, y, band)
+        assert dtw_features_gemm(x, y, np.inf, band, backend) == pytest.approx(d, rel=1e-9)
+        assert dtw_features_gemm(x, x, np.inf, band, backend) == 0.0
+        assert dtw_features_gemm(x, y, 0.5 * d, band, backend) in (np.inf, pytest.approx(d, rel=1e-9))
+
+
+@pytest.mark.parametrize("shortlist", [1, 3, 8])
+def test_search_is_exact_float_dtw_over_the_code_shortlist(shortlist):
+    lib = _library()
+    s = StoryBeamSearcher.fit(lib[4:], dims=4, shortlist=shortlist)
+    for q in lib[:4]:
+        codes = s.quantizer.encode(q)
+        res = s.searcher.search([codes], k=max(shortlist, 2), parallel=False)  # k=2 widens a shortlist of 1
+        cands = [int(i) for i in res.indices[0]]
+        brute = sorted((dtw_features(q, lib[4 + i]), i) for i in cands)
+        hits = s.search(q, k=2)
+        assert [h.index for h in hits] == [i for _, i in brute[:2]]
+        assert [h.distance for h in hits] == pytest.approx([d for d, _ in brute[:2]], rel=1e-9)
+
+
+def test_search_with_the_whole_library_shortlisted_is_exact_dtw():
+    lib = _library()
+    s = StoryBeamSearcher.fit(lib[3:], dims=4, shortlist=len(lib))
+    for q in lib[:3]:
+        exact = np.array([dtw_features(q, r) for r in lib[3:]])
+        hits = s.search(q, k=5)
+        assert [h.index for h in hits] == list(np.argsort(exact, kind="stable")[:5])
+    # a clip finds itself first, at distance 0, and exclude leaves it out
+    s2 = StoryBeamSearcher.fit(lib, dims=4, shortlist=4)
+    for i in range(len(lib)):
+        top = s2.search(lib[i], k=1)[0]
+        assert top.index == i and top.distance == 0.0
+        assert s2.search(lib[i], k=1, exclude=i)[0].index != i
+
+
+# ------------------------------------------------------------------ the protocols
+def _clips() -> list[Clip]:
+    lib = _library(30)
+    return [Clip(f"t{i}", "ab"[i % 2], f, None, 30.0, subject=f"s{i % 5}") for i, f in enumerate(lib)]
+
+
+def test_subject_folds_leave_one_group_out():
+    subjects = ["b", "a", "b", "c", "a"]
+    folds = subject_folds(subjects)
+    assert [f.tolist() for f in folds] == [[1, 4], [0, 2], [3]]
+    with pytest.raises(EvaluationError, match="subject"):
+        subject_folds(["a", "", "b"])
+    with pytest.raises(EvaluationError, match="2 subject groups"):
+        subject_folds(["a", "a"])
+
+
+def test_subject_split_never_answers_from_the_query_subject():
+    clips = _clips()
+    subject = {c.trial: c.subject for c in clips}
+    res = evaluate(clips, ["storybeam", "dtw-storybeam", "dtw"], dims=4, split="subject")
+    for r in res.values():
+        assert r.total == len(clips)
+        assert all(subject[q] != subject[a] for q, a in r.predictions.items())
+        assert sum(sum(row.values()) for row in r.confusion.values()) == len(clips)
+
+
+def test_seed_methods_see_only_the_mr17_columns():
+    clips = _clips()
+    narrow = [Clip(c.trial, c.label, c.features[:, : MR17.dim], None, 30.0, subject=c.subject) for c in clips]
+    wide = evaluate(clips, ["dtw", "dtw-storybeam"], folds=3)
+    seed = evaluate(narrow, ["dtw"], folds=3)
+    assert wide["dtw"].predictions == seed["dtw"].predictions
+    # and the turning column matters to dtw-storybeam: its distances differ from dtw's
+    q, r = clips[0].features, clips[1].features
+    assert dtw_features(q, r) != dtw_features(q[:, : MR17.dim], r[:, : MR17.dim])
