@@ -111,29 +111,31 @@ def _add_ar(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--renderers", default="kivy-gl,pyrender",
                    help="camera frame -> projector frame timing at 640x480 on one core, per renderer "
-                        "(comma-separated from kivy-gl, kivy-gl-1x = without supersampling, pyrender; "
+                        "(comma-separated from kivy-gl = as the projector screen draws, one sample per pixel; "
+                        "kivy-gl-2x = 2x2 supersampling, as the Play preview draws; pyrender; "
                         "'none' skips it; default kivy-gl,pyrender)")
     p.add_argument("--frame-only", action="store_true",
                    help="only the frame timing (and its 640x480 accuracy), not the calibrated accuracy bench")
 
 
-def kivy_gl_renderer(**options):
-    """The app's Kivy GL renderer (:mod:`app.ui.gl`, its default settings) on a hidden window,
-    for the frame timing of ``storybeam bench ar`` (a factory: called in the process that
-    measures it)."""
+def kivy_gl_renderer(supersample: int | None = None):
+    """The app's Kivy GL renderer (:mod:`app.ui.gl`) on a hidden window, as the projector
+    screen draws (``PROJECTOR_SUPERSAMPLE``, one sample per pixel) unless ``supersample``
+    is given, for the frame timing of ``storybeam bench ar`` (a factory: called in the
+    process that measures it)."""
     from app.ui.env import prepare_kivy_env  # deferred: Kivy reads its environment at import
 
     prepare_kivy_env(headless=True, width=640, height=480)
     from kivy.core.window import Window  # noqa: F401  deferred: opens the GL context the renderer draws in
 
-    from app.ui.gl import KivyGLRenderer  # deferred: after prepare_kivy_env()
+    from app.ui.gl import PROJECTOR_SUPERSAMPLE, KivyGLRenderer  # deferred: after prepare_kivy_env()
 
-    return KivyGLRenderer(**options)
+    return KivyGLRenderer(PROJECTOR_SUPERSAMPLE if supersample is None else supersample)
 
 
-def kivy_gl_renderer_1x():
-    """:func:`kivy_gl_renderer` with one sample per pixel (no supersampling)."""
-    return kivy_gl_renderer(supersample=1)
+def kivy_gl_renderer_2x():
+    """:func:`kivy_gl_renderer` at the Play preview's 2 x 2 supersampling."""
+    return kivy_gl_renderer(supersample=2)
 
 
 def _run_ar(args: argparse.Namespace) -> int:
@@ -166,7 +168,7 @@ def _run_ar(args: argparse.Namespace) -> int:
     cfg = BenchConfig(frames=args.frames, board_spec=spec, estimated_calibration=not args.true_calibration,
                       seed=args.seed, conditions=conditions, pose_filter=args.filter)
     renderers = [] if args.renderers.strip() == "none" else [r.strip() for r in args.renderers.split(",") if r.strip()]
-    factories = {"kivy-gl": kivy_gl_renderer, "kivy-gl-1x": kivy_gl_renderer_1x, **FRAME_RENDERERS}
+    factories = {"kivy-gl": kivy_gl_renderer, "kivy-gl-2x": kivy_gl_renderer_2x, **FRAME_RENDERERS}
     unknown = [r for r in renderers if r not in factories]
     if unknown:
         raise StoryBeamError(f"unknown renderer(s) {', '.join(unknown)}; known: {', '.join(factories)}")

@@ -30,7 +30,7 @@ from kivy.uix.slider import Slider
 from kivy.uix.widget import Widget
 
 from app.story import Story
-from app.ui.gl import KivyGLRenderer
+from app.ui.gl import PROJECTOR_SUPERSAMPLE, KivyGLRenderer
 from app.ui.narration import NarrationPlayback
 from app.ui.table_view import TableView
 from app.ui.widgets import BUTTON_DP, IconButton, filled
@@ -375,8 +375,8 @@ class ProjectorScreen(_PlayerScreen):
             if frame.description is not None:
                 self.drawn_by = "pyrender"
             return rgb_texture(frame.rgb)
-        if self.gl is None:
-            self.gl = KivyGLRenderer()
+        if self.gl is None:  # the projector's light: one sample per pixel (latency; see PROJECTOR_SUPERSAMPLE)
+            self.gl = KivyGLRenderer(PROJECTOR_SUPERSAMPLE)
         self.drawn_by = "kivy-gl"
         if frame.light_sink is not None:
             light = self.gl.render(frame.description)

@@ -16,11 +16,16 @@ from app.commands.bench_cmd import TARGETS
 from app.paths import MOTIONS_DIR
 
 REQUIRED = ("protocol", "speedup_vs_exact_dtw", "speedup_vs_dtaidistance", "speedup_vs_seed_method",
-            "query_ms_median", "query_ms_p95", "library_clips", "library_hours", "table_bytes")
+            "query_ms_median", "query_ms_p95", "library_clips", "library_hours", "table_bytes",
+            # issue 16: the honest benchmark's keys
+            "vs_ucr_codes_median", "vs_ucr_codes_total", "protocol_vs_ucr_codes_median",
+            "protocol_vs_ucr_codes_total", "same_answers", "big_library_clips", "big_library_ms_median",
+            "big_library_ms_p95", "big_library_bytes_per_clip")
 AR_CONDITION_KEYS = {"detect_rate", "rot_err_deg_median", "trans_err_mm_median", "rot_err_deg_p95", "trans_err_mm_p95",
                      "jitter_raw_deg", "jitter_filtered_deg", "jitter_raw_mm", "jitter_filtered_mm",
                      "landing_error_mm_median", "detect_pose_ms_median", "render_ms_median"}
-EXPECTED_TARGETS = ("retrieval", "ar", "animation", "dtw-kernels", "motion-io", "numpy-retrieval", "fast-search-profile")
+EXPECTED_TARGETS = ("retrieval", "ar", "animation", "dtw-kernels", "motion-io", "numpy-retrieval", "fast-search-profile",
+                    "pose-search")
 
 
 def _json(path) -> dict:
@@ -35,18 +40,32 @@ def test_bench_retrieval_quick_emits_the_json_keys(tmp_path, monkeypatch, capsys
     res = _json(out)
     for key in REQUIRED:
         assert key in res, key
-    for method in ("fast", "quantized", "dtw", "dtaidistance"):
+    for method in ("fast", "ucr_rival", "quantized", "dtw", "dtaidistance"):
         assert set(res["protocol"][method]) >= {"seconds", "accuracy"}
         assert res["protocol"][method]["seconds"] > 0
-    # the fast search is exact: the seed's method and it answer every query alike
+    # the fast search is exact: the seed's method, the rival and it answer every query alike
+    assert res["same_answers"] is True
+    assert res["protocol_interleaved"]["same_answers_codes"] is True
     assert res["protocol"]["fast"]["accuracy"] == res["protocol"]["quantized"]["accuracy"]
+    assert res["protocol"]["ucr_rival"]["accuracy"] == res["protocol"]["quantized"]["accuracy"]
+    # dtaidistance configured with the Euclidean inner distance is the project's float DTW
+    assert res["protocol_interleaved"]["same_answers_float"] is True
+    assert res["protocol"]["dtw"]["accuracy"] == res["protocol"]["dtaidistance"]["accuracy"]
+    # per-query timings, interleaved: every method timed on every query
+    for part in ("library", "big_library"):
+        for m in res[part]["methods"].values():
+            assert m["queries"] == res["latency_queries"] and 0 < m["ms_median"] <= m["ms_p95"]
+    assert res["vs_ucr_codes_median"] > 0 and res["protocol_vs_ucr_codes_total"] > 0
     assert res["table_bytes"] <= 64 * 1024
     assert res["library_clips"] >= 300
+    assert res["big_library_clips"] >= 3 * res["library_clips"] // 2
+    sizes = [c["clips"] for c in res["latency_vs_library_size"]]
+    assert sizes == sorted(set(sizes)) and sizes[0] == res["library_clips"] and sizes[-1] == res["big_library_clips"]
     assert set(res["ablations"]) >= {"diff_brute", "bounds_plain", "runs_approx", "band", "fast_parallel"}
     # ratios compare only on the same CPU: the run says which one it was
     assert res["machine"]["cpus"] >= 1 and res["machine"]["cpu_model"]
     printed = capsys.readouterr().out
-    assert "paper protocol" in printed and "speed-up" in printed
+    assert "paper protocol" in printed and "UCR rival" in printed and "big library" in printed
 
 
 def test_bench_without_target_prints_help_listing_every_target(capsys):
@@ -140,7 +159,7 @@ def test_bench_fast_search_profile_on_the_bundled_library(tmp_path, monkeypatch,
 def test_bench_ar_few_frames(tmp_path, capsys):
     out = tmp_path / "ar.json"
     rc = main(["bench", "ar", "--frames", "3", "--conditions", "clean,occlusion_30", "--true-calibration",
-               "--json", str(out), "--examples", str(tmp_path / "img")])
+               "--json", str(out), "--examples", str(tmp_path / "img"), "--renderers", "none"])
     assert rc == 0
     result = _json(out)
     assert set(result["conditions"]) == {"clean", "occlusion_30"}
@@ -157,8 +176,29 @@ def test_bench_ar_few_frames(tmp_path, capsys):
     assert (tmp_path / "img" / "ar_occlusion_30_camera_axes.png").is_file()
 
 
+def test_bench_ar_frame_timing_per_renderer(tmp_path, capsys):
+    """Camera frame -> projector frame per renderer (issue 13): each renderer in its own
+    process, the keys the issue names, the accuracy of the fast path, a lit projector frame."""
+    out = tmp_path / "frame.json"
+    rc = main(["bench", "ar", "--frame-only", "--frames", "4", "--conditions", "clean",
+               "--renderers", "kivy-gl,pyrender", "--json", str(out)])
+    assert rc == 0
+    clean = _json(out)["conditions"]["clean"]
+    assert set(clean["renderers"]) == {"kivy-gl", "pyrender"}
+    for name, r in clean["renderers"].items():
+        assert "error" not in r, (name, r)
+        for key in ("detect_pose_ms_median", "render_ms_median", "frame_ms_median", "frame_ms_p95"):
+            assert r[key] > 0 and r["cpu"][key] > 0
+        assert r["frame_ms_p95"] >= r["frame_ms_median"] >= r["render_ms_median"]
+        assert r["detect_rate"] == 1.0 and r["rot_err_deg_median"] < 0.2 and r["trans_err_mm_median"] < 1.0
+        assert r["before_detect_pose_ms_median"] > 0 and r["search_paths"]["region"] == 3
+        assert r["lit_fraction_median"] > 0.001  # the robot's light is in the frame
+    assert "| clean | pyrender |" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("argv, message", [
     (["ar", "--frames", "3", "--conditions", "fog"], "unknown condition(s) fog"),
+    (["ar", "--frames", "3", "--renderers", "vulkan"], "unknown renderer(s) vulkan"),
     (["ar", "--frames", "3", "--board", "checker:9x6"], "expected 3"),
     (["animation", "--characters", "dragon"], "unknown character(s) dragon"),
     (["motion-io", "--data", "{tmp}/nope"], "labels.csv not found"),

@@ -81,6 +81,7 @@ def kivy_images(tmp_path_factory):
     assert proc.returncode == 0 and out.is_file(), proc.stderr[-3000:]
     data = np.load(out)
     _STAGE["kivy"] = data["stage"]  # the stage frames, for test_kivy_gl_stage_matches_the_pyrender_stage
+    _STAGE["projector_masks"] = data["projector_masks"]  # as the projector screen draws (one sample per pixel)
     return data["shaded"], data["masks"], int(data["uploads"])
 
 
@@ -130,6 +131,27 @@ def test_kivy_gl_matches_pyrender_for_every_character_pose_and_view(kivy_images)
                   f"({sum(r[0] < IOU_MIN for r in rows)} below {IOU_MIN}), coverage-weighted IoU min "
                   f"{min(r[1] for r in rows):.4f}, centroid offset max {max(r[2] for r in rows):.3f} px, "
                   f"shading mean max {max(r[3] for r in rows):.2f}, p99 max {max(r[4] for r in rows):.1f}")
+
+
+def test_projector_screen_setting_matches_pyrender_in_every_projector_case(kivy_images):
+    """The projector screen draws with one sample per pixel (``PROJECTOR_SUPERSAMPLE``:
+    the light's latency budget); its projector-view silhouettes meet the issue's bar as
+    stated, in every case: half-covered IoU >= 0.98 and centroids within 1 px of
+    pyrender's (4 multisamples). Measured when written: IoU min 0.9805, centroid max 0.26 px."""
+    masks = _STAGE["projector_masks"]
+    cases = [desc for _n, _k, view, desc in parity_cases() if view == "projector"]
+    assert len(cases) == len(masks) >= 60
+    ref = PyrenderSceneRenderer()
+    try:
+        for i, desc in enumerate(cases):
+            ref_mask, kivy_mask = ref.render(silhouette_description(desc))[..., 0] >= 128, masks[i] >= 128
+            assert ref_mask.sum() > 300, f"projector case {i}: the character is not in view"
+            j = iou(ref_mask, kivy_mask)
+            dc = float(np.linalg.norm(centroid(ref_mask) - centroid(kivy_mask)))
+            assert j >= IOU_MIN, f"projector case {i}: silhouette IoU {j:.4f} at one sample per pixel"
+            assert dc <= CENTROID_PX, f"projector case {i}: centroids {dc:.3f} px apart"
+    finally:
+        ref.close()
 
 
 def test_kivy_gl_silhouettes_differ_when_the_pose_differs(kivy_images):

@@ -11,7 +11,8 @@ Run as ``python tests/support/gl_parity.py OUT.npz`` (offscreen SDL) it draws ev
 with :class:`app.ui.gl.KivyGLRenderer` -- in its own process: Kivy keeps one window and
 one GL context per process -- and saves, per case, the shaded image and the silhouette
 image (:func:`silhouette_description`: every item white, ambient 1, no key light), and
-the first :data:`STAGE_FRAMES` projector frames of the demo story's first scene through
+the projector-view silhouettes again as the projector screen draws them
+(``PROJECTOR_SUPERSAMPLE``, one sample per pixel), and the first :data:`STAGE_FRAMES` projector frames of the demo story's first scene through
 :func:`app.ui.gl.stage.kivy_gl_stage_renderer` (the synthetic rig, deterministic).
 """
 from __future__ import annotations
@@ -130,6 +131,12 @@ def _kivy_main(out: Path) -> None:
     for _name, _k, _view, desc in parity_cases():
         shaded.append(renderer.render(desc))
         masks.append(renderer.render(silhouette_description(desc))[..., 0])
+    # the projector screen's own setting (one sample per pixel): its view's silhouettes
+    from app.ui.gl import PROJECTOR_SUPERSAMPLE  # deferred: imports Kivy
+
+    light = KivyGLRenderer(PROJECTOR_SUPERSAMPLE)
+    projector_masks = [light.render(silhouette_description(desc))[..., 0]
+                       for _name, _k, view, desc in parity_cases() if view == "projector"]
     from app.story.demo_story import demo_story  # deferred: only the stage check needs it
     from app.ui.gl.stage import kivy_gl_stage_renderer  # deferred: imports Kivy
 
@@ -137,7 +144,7 @@ def _kivy_main(out: Path) -> None:
     scene = demo_story().scenes[0]
     stage_frames = np.stack([stage(scene, 0.5 + 0.1 * i, "projector") for i in range(STAGE_FRAMES)])
     np.savez_compressed(out, shaded=np.stack(shaded), masks=np.stack(masks), uploads=renderer.uploads,
-                        stage=stage_frames)
+                        stage=stage_frames, projector_masks=np.stack(projector_masks))
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ Import after :func:`app.ui.env.prepare_kivy_env`, and draw on Kivy's main thread
 """
 from __future__ import annotations
 
-from app.ui.gl.renderer import SUPERSAMPLE, VERTEX_FORMAT, KivyGLError, KivyGLRenderer, kivy_matrix
+from app.ui.gl.renderer import PROJECTOR_SUPERSAMPLE, SUPERSAMPLE, VERTEX_FORMAT, KivyGLError, KivyGLRenderer, kivy_matrix
 from app.ui.gl.shaders import FRAGMENT, VERTEX
 
-__all__ = ["KivyGLRenderer", "KivyGLError", "VERTEX_FORMAT", "SUPERSAMPLE", "kivy_matrix", "VERTEX", "FRAGMENT"]
+__all__ = ["KivyGLRenderer", "KivyGLError", "VERTEX_FORMAT", "SUPERSAMPLE", "PROJECTOR_SUPERSAMPLE", "kivy_matrix", "VERTEX", "FRAGMENT"]

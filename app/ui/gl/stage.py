@@ -17,7 +17,7 @@ import numpy as np
 
 from app.scene.stage import StageRenderer
 from app.story import Scene
-from app.ui.gl.renderer import KivyGLRenderer
+from app.ui.gl.renderer import PROJECTOR_SUPERSAMPLE, KivyGLRenderer
 
 StageCall = Callable[[Scene, float, str], np.ndarray]
 
@@ -26,8 +26,9 @@ def kivy_gl_stage_renderer(rig=None, supersample: int | None = None, **stage_kwa
     """``render(scene, t, view="projector") -> RGB``; ``render.stage`` is the
     :class:`StageRenderer` (its last :class:`app.scene.stage.StageFrame` is
     ``render.last_frame``), ``render.gl`` the :class:`KivyGLRenderer`, ``render.name`` is
-    ``"kivy-gl"``. ``stage_kwargs`` go to :class:`StageRenderer` (``rig``, ``fps``, ...)."""
-    gl = KivyGLRenderer() if supersample is None else KivyGLRenderer(supersample)
+    ``"kivy-gl"``. ``supersample``: default :data:`PROJECTOR_SUPERSAMPLE`, as the projector
+    screen draws. ``stage_kwargs`` go to :class:`StageRenderer` (``rig``, ``fps``, ...)."""
+    gl = KivyGLRenderer(PROJECTOR_SUPERSAMPLE if supersample is None else supersample)
     stage = StageRenderer(rig=rig, draw=gl.render, **stage_kwargs)
 
     def render(scene: Scene, t: float, view: str = "projector") -> np.ndarray:
