@@ -56,6 +56,9 @@ def register(subparsers) -> None:
     p.add_argument("-k", "--top", type=int, default=5, help="how many clips to report (default 5)")
     p.add_argument("--subsequence", action="store_true",
                    help="find the clips that pass through a (short) query, with start/end frames")
+    p.add_argument("--find", action="store_true",
+                   help="find this clip: rank by identity (the same clip from another file, skeleton or frame "
+                        "rate first) rather than by likeness; storybeam indexes")
     p.add_argument("--dims", type=int, default=6, help="PCA components when indexing a folder")
     p.add_argument("--fps", type=float, default=30.0, help="frame rate when indexing a folder")
     p.add_argument("--save-index", help="also save the index built from --data here")
@@ -94,8 +97,12 @@ def run(args) -> int:
     # The storybeam method (the default) answers a nearest search by exact float DTW among
     # the code shortlist; the subsequence search and a quantized index use the codes alone.
     by_features = index.method == "storybeam" and not args.subsequence
+    if args.find and not by_features:
+        raise StoryBeamError("--find needs a storybeam index and no --subsequence")
     tw = time.perf_counter()
-    if by_features:
+    if by_features and args.find:  # also builds the identity ranking's codes, outside the timings
+        index.find(index.clip_features[0], k=1)
+    elif by_features:
         index.query(index.clip_features[0], k=1)
     else:
         index.subsequence_codes(index.codes[0], k=1) if args.subsequence else index.query_codes(index.codes[0], k=1)
@@ -103,7 +110,7 @@ def run(args) -> int:
     encoded = index.features(motion) if by_features else index.encode(motion)
     t1 = time.perf_counter()
     if by_features:
-        matches = index.query(encoded, k=args.top)
+        matches = index.find(encoded, k=args.top) if args.find else index.query(encoded, k=args.top)
     elif args.subsequence:
         matches = index.subsequence_codes(encoded, k=args.top)
     else:
@@ -111,7 +118,7 @@ def run(args) -> int:
     t2 = time.perf_counter()
 
     report = {
-        "query": str(query_path), "data": str(data), "mode": "subsequence" if args.subsequence else "nearest",
+        "query": str(query_path), "data": str(data), "mode": "subsequence" if args.subsequence else ("find" if args.find else "nearest"),
         "results": [{"rank": i, **m.as_dict()} for i, m in enumerate(matches, 1)],
         "search_ms": (t2 - t1) * 1e3, "encode_ms": (t1 - t0) * 1e3, "kernels_ms": (t0 - tw) * 1e3,
         "backend": index.backend, "clips": len(index), "method": index.method,

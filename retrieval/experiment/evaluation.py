@@ -43,7 +43,7 @@ from retrieval.errors import StoryBeamError
 from retrieval.experiment.baselines import ExactDTWMatcher, ForbesFiumeMatcher
 from retrieval.experiment.matchers import FastMatcher, QuantizedMatcher, StoryBeamMatcher
 from retrieval.features import MR17
-from retrieval.library import SHORTLIST, Clip, dtw_features_abandon
+from retrieval.library import SHORTLIST, Clip, StoryBeamSearcher, dtw_features_abandon
 from retrieval.search import warm_up as warm_up_fast
 
 #: "quantized" is the research's method as it describes it (full 4ⁿ×4ⁿ table, DTW against
@@ -127,6 +127,10 @@ def warm_up(methods: Sequence[str] = METHODS) -> None:
         warm_up_fast()
     if "storybeam" in methods:
         dtw_features_abandon(x, x, 1.0)
+        # the shortlist's search mode and the no-band re-ranking kernel, through the method itself
+        rng = np.random.default_rng(0)
+        lib = [rng.normal(size=(6 + i, 3)) for i in range(3)]
+        StoryBeamSearcher.fit(lib, dims=2, shortlist=2).search(lib[0], k=1)
 
 
 @dataclass

@@ -3,7 +3,11 @@
 A folder holds ``labels.csv`` with at least the columns ``trial``, ``label``, ``file`` and
 ``skeleton`` (the ASF for AMC files; empty for BVH); an optional ``subject`` column (the
 performer, or the style) is kept for the leave-one-subject-out protocol; other columns
-are ignored and paths are relative to the folder. Every unusable row raises :class:`DatasetError` naming the CSV,
+are ignored and paths are relative to the folder. The ``label`` column may be empty on
+a row: an **unlabelled clip** (a teacher's import), loaded with label ``""`` — search,
+the catalogue and :mod:`~retrieval.library.grouping` (which names a group by its
+members' labels, else by a picture) work on it; ``storybeam eval`` refuses it, naming
+the row, since accuracy needs a label. Every unusable row raises :class:`DatasetError` naming the CSV,
 the row and the problem, before any slow loading starts.
 
 Loading runs forward kinematics once per clip and keeps the 17-D features, and the
@@ -55,7 +59,8 @@ def default_cache_dir() -> Path:
 
 
 def read_labels(folder: str | Path) -> list[LabelRow]:
-    """Parse and check ``folder/labels.csv`` (files must exist)."""
+    """Parse and check ``folder/labels.csv`` (files must exist; a row's label may be
+    empty: an unlabelled clip, label ``""``)."""
     folder = Path(folder)
     csv_path = folder / "labels.csv"
     if not folder.is_dir():
@@ -72,8 +77,8 @@ def read_labels(folder: str | Path) -> list[LabelRow]:
         for line, rec in enumerate(reader, start=2):
             trial, label, file = ((rec.get(k) or "").strip() for k in ("trial", "label", "file"))
             skel = (rec.get("skeleton") or "").strip()
-            if not trial or not label or not file:
-                raise DatasetError(f"{csv_path}, line {line}: empty trial, label or file")
+            if not trial or not file:  # an empty label is allowed: an unlabelled clip
+                raise DatasetError(f"{csv_path}, line {line}: empty trial or file")
             if trial in seen:
                 raise DatasetError(f"{csv_path}, line {line}: duplicate trial {trial!r}")
             seen.add(trial)

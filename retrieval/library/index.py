@@ -229,6 +229,18 @@ class MotionIndex:
             return [Match(self.trials[h.index], self.labels[h.index], h.distance) for h in hits]
         return self._nearest(self.codes[i], k, exclude=i)
 
+    def find(self, query: Motion | Clip | np.ndarray, k: int = 1) -> list[Match]:
+        """"Find this clip": the ``k`` library clips most likely to *be* the query (the
+        same clip from another file, skeleton or frame rate), nearest first. Storybeam
+        indexes rank by exact float DTW on per-clip centred features among their own
+        code shortlist (:meth:`StoryBeamSearcher.find`; distances are those centred
+        DTWs); a quantized index has no float features and answers as :meth:`query`."""
+        if self._storybeam is None:
+            return self.query(query, k)
+        feats = np.asarray(self.features(query), dtype=np.float32).astype(np.float64)
+        hits = self._storybeam.find(feats, k)
+        return [Match(self.trials[h.index], self.labels[h.index], h.distance) for h in hits]
+
     def subsequence(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
         """The ``k`` clips that pass closest through a (short) query, each with the
         library frames ``[start, end)`` where it does, nearest first."""

@@ -5,9 +5,11 @@ Method, for a query with features ``q`` (the ``"storybeam"`` feature set: MR17 p
 turning rate, :mod:`retrieval.features.storybeam_set`):
 
 1. **Shortlist.** PCA (``dims`` components) + the seed's 2-bit quantiser turn ``q`` into
-   codes; the exact fast search (:class:`~retrieval.search.FastSearcher`, the 20 KiB
+   codes; the fast search (:class:`~retrieval.search.FastSearcher`, the 20 KiB
    difference table, lower bounds, early abandoning) returns the ``shortlist`` library
-   clips nearest by look-up-table DTW (ties by library order).
+   clips nearest by look-up-table DTW (ties by library order), by default in its
+   run-length form (``mode="runs"``, :data:`SHORTLIST_MODE`), which costs about a third
+   of the exact code search and, measured, shortlists as well for the re-ranking.
 2. **Re-rank.** Each shortlisted clip's distance is then exact DTW with Euclidean frame
    cost on the float features (:func:`~retrieval.dtw.dtw_features`, normalised by
    ``len(q) + len(r)``) — the same distance as the exact-DTW baseline on the same
@@ -29,9 +31,27 @@ accuracy and speed. Saturation: quantised distances are coarse (several clips at
 for a near-duplicate), and the float re-ranking breaks exactly those ties — "find this
 clip" returns the clip itself first.
 
+"Find this clip" (:meth:`StoryBeamSearcher.find`) is a separate ranking for identity,
+not class: the class ranking above can put a near-duplicate (another take by the same
+performer) before the clip itself when the clip comes back from another skeleton,
+because retargeting shifts each feature by a per-clip offset (a body's head and
+shoulders sit elsewhere) larger than the difference between two takes. ``find`` removes
+exactly that offset: every feature column minus its mean over the clip
+(:func:`centre`), for the query and the library alike. It then runs the same two steps
+on the centred features — a second quantiser (PCA + 2-bit codes, fitted on the
+library's centred frames, built on first use) shortlists the ``shortlist`` code-nearest
+clips, exact float DTW on centred features ranks them — so it is exact with respect to
+what it ranks, and :meth:`search` (class retrieval, the evaluation's accuracy) is
+untouched. Centred features are worse for class (they drop posture levels that tell a
+jump from a walk: 91.7 % on CMU against 99.0 % raw, exact DTW) and better for identity
+(205 / 205 CMU clips found first after a round trip onto another skeleton, against
+164 / 205 by :meth:`search`; docs/results.md), hence two rankings.
+
 Cost: one fast code search plus at most ``shortlist`` float DTWs (fewer cells when
 abandoned), against one float DTW per library clip for exact DTW; memory: the codes
-(int32 per frame) plus the float features of the library (float32 on disk).
+(int32 per frame) plus the float features of the library (float32 on disk; in memory
+float64, held twice when there is no band — as given and transposed, for the
+re-ranking kernel — 288 bytes per 18-D frame).
 """
 from __future__ import annotations
 
@@ -52,6 +72,21 @@ SHORTLIST = 4
 #: Default kept PCA components of the shortlist's codes (the seed's n).
 DIMS = 6
 
+#: How the shortlist's code distances are computed (:class:`~retrieval.search.FastSearcher`
+#: ``mode``): "runs", the run-length form of the code DTW, ranks the shortlist at about a
+#: third of the exact code search's cost and, measured on both shared data sets, picks
+#: shortlists that give the same 1-NN accuracy after re-ranking (docs/results.md); the
+#: re-ranking, and so every returned distance, stays exact float DTW either way.
+SHORTLIST_MODE = "runs"
+
+
+def centre(features: np.ndarray) -> np.ndarray:
+    """(frames, d) features minus each column's mean over the frames (float64): the
+    per-clip offset a retarget or a skeleton's proportions add is removed, the motion's
+    shape over time is kept."""
+    f = np.asarray(features, dtype=np.float64)
+    return f - f.mean(axis=0, keepdims=True)
+
 
 @dataclass(frozen=True)
 class Hit:
@@ -70,7 +105,7 @@ class StoryBeamSearcher:
 
     def __init__(self, quantizer: Quantizer, codes: Sequence[np.ndarray], features: Sequence[np.ndarray],
                  shortlist: int = SHORTLIST, band: int | None = None, backend: str = "auto",
-                 searcher: FastSearcher | None = None):
+                 searcher: FastSearcher | None = None, mode: str = SHORTLIST_MODE):
         if len(codes) != len(features) or not codes:
             raise StoryBeamError("storybeam search: codes and features must be non-empty and of equal length")
         if shortlist < 1:
@@ -78,20 +113,30 @@ class StoryBeamSearcher:
         self.quantizer = quantizer
         self.codes = [np.ascontiguousarray(c, dtype=np.int32) for c in codes]
         self.features = [np.ascontiguousarray(f, dtype=np.float64) for f in features]
+        # the features transposed, for the compiled no-band re-ranking kernel (saves a copy per candidate)
+        self.features_t = [np.ascontiguousarray(f.T) for f in self.features] if band is None else None
         self.shortlist = int(shortlist)
         self.band = band
         self.table = DiffTable.from_ratios(quantizer.ratios)
-        # ``searcher``: an existing fast search over exactly these codes (MotionIndex shares its own)
-        self.searcher = searcher or FastSearcher(self.codes, self.table, band=band, backend=backend)
+        if mode == "runs" and band is not None:
+            mode = "exact"  # the run-length form has no band
+        self.mode = mode
+        # ``searcher``: an existing fast search over exactly these codes (MotionIndex shares
+        # its own), used when it computes the shortlist's distances the same way
+        if searcher is None or searcher.mode != mode:
+            searcher = FastSearcher(self.codes, self.table, band=band, backend=backend, mode=mode)
+        self.searcher = searcher
+        self._identity: StoryBeamSearcher | None = None  # the centred-feature searcher of find(), built on first use
 
     @classmethod
     def fit(cls, features: Sequence[np.ndarray], dims: int = DIMS, shortlist: int = SHORTLIST,
-            band: int | None = None, backend: str = "auto") -> "StoryBeamSearcher":
+            band: int | None = None, backend: str = "auto", mode: str = SHORTLIST_MODE) -> "StoryBeamSearcher":
         """PCA and quantiser fitted on the library's frames only, then the searcher."""
         if not features:
             raise StoryBeamError("storybeam search: no clips to index")
         quantizer = Quantizer.fit(np.concatenate(list(features), axis=0), dims)
-        return cls(quantizer, [quantizer.encode(f) for f in features], features, shortlist, band, backend)
+        return cls(quantizer, [quantizer.encode(f) for f in features], features, shortlist, band, backend,
+                   mode=mode)
 
     def __len__(self) -> int:
         return len(self.codes)
@@ -117,6 +162,26 @@ class StoryBeamSearcher:
         cands = [(int(i), float(d)) for i, d in zip(res.indices[0], res.distances[0]) if i >= 0 and i != exclude]
         return self.rerank(q, cands, k)
 
+    def identity_searcher(self) -> "StoryBeamSearcher":
+        """The searcher of :meth:`find`: the same method over the library's centred
+        features (its own PCA and quantiser, fitted on those frames), built once."""
+        if self._identity is None:
+            dims = self.quantizer.n
+            self._identity = StoryBeamSearcher.fit([centre(f) for f in self.features], dims, self.shortlist,
+                                                   self.band, self.backend, self.mode)
+        return self._identity
+
+    def find(self, query: np.ndarray, k: int = 1, exclude: int | None = None) -> list[Hit]:
+        """"Find this clip": the ``k`` library clips nearest to ``query`` by exact float
+        DTW on centred features (:func:`centre`) among the centred codes' shortlist,
+        nearest first (see the module docstring). ``distance`` is the centred DTW and
+        ``code_distance`` the centred code DTW; indices are library positions."""
+        q = np.asarray(query, dtype=np.float64)
+        if q.ndim != 2 or q.shape[0] == 0 or q.shape[1] != self.features[0].shape[1]:
+            raise StoryBeamError(f"storybeam find: query features must be (frames, {self.features[0].shape[1]}), "
+                                 f"got {q.shape}")
+        return self.identity_searcher().search(centre(q), k, exclude=exclude)
+
     def rerank(self, q: np.ndarray, candidates: Sequence[tuple[int, float]], k: int) -> list[Hit]:
         """Exact float DTW of ``q`` to each (index, code distance) candidate, the ``k``
         nearest kept. Candidates come in code order, so the first few set a tight
@@ -126,7 +191,8 @@ class StoryBeamSearcher:
         best: list[Hit] = []
         for i, cd in candidates:
             limit = best[k - 1].distance if len(best) >= k else np.inf
-            d = dtw_features_abandon(q, self.features[i], limit, self.band, self.backend)
+            d = dtw_features_abandon(q, self.features[i], limit, self.band, self.backend,
+                                     None if self.features_t is None else self.features_t[i])
             if d <= limit:
                 best.append(Hit(i, d, cd))
                 best.sort(key=lambda h: (h.distance, h.code_distance, h.index))

@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 from retrieval.errors import DatasetError, IndexFormatError
+from retrieval.library import MotionIndex
+from retrieval.motion import load_motion
 from tests.support.synthetic_motion import make_motion, make_skeleton, write_bvh
 
 pytest.importorskip("retrieval.motion.formats.dispatch")
@@ -158,6 +160,16 @@ def test_cli_json_shapes(library, tmp_path):
     # a saved index works as --data too
     rc = main(["search", "--data", str(tmp_path / "idx"), "--query", str(library / "wave_2.bvh"), "--json", str(res)])
     assert rc == 0 and json.loads(res.read_text())["results"][0]["trial"] == "wave_2"
+    # "find this clip": the identity ranking, same answer as MotionIndex.find on the saved index
+    rc = main(["search", "--data", str(tmp_path / "idx"), "--query", str(library / "wave_2.bvh"), "--find",
+               "--top", "3", "--json", str(res)])
+    found = json.loads(res.read_text())
+    assert rc == 0 and found["mode"] == "find" and found["results"][0]["trial"] == "wave_2"
+    saved = MotionIndex.load(tmp_path / "idx")
+    expect = saved.find(load_motion(library / "wave_2.bvh"), k=3)
+    assert [r["trial"] for r in found["results"]] == [m.trial for m in expect]
+    assert main(["search", "--data", str(tmp_path / "idx"), "--query", str(library / "wave_2.bvh"), "--find",
+                 "--subsequence"]) == 1
 
 
 def test_cli_subject_split_confusion_plots_and_identity(library, tmp_path):
@@ -184,7 +196,48 @@ def test_cli_subject_split_confusion_plots_and_identity(library, tmp_path):
     # the synthetic takes of a class are near-duplicates: report, do not promise, identity here
     assert found["clips"] == 9 and 0 <= found["quantized_top1"] <= 1
     assert len(found["storybeam_misses"]) == round(9 * (1 - found["storybeam_top1"]))
+    assert len(found["storybeam_find_misses"]) == round(9 * (1 - found["storybeam_find_top1"]))
     assert main(["eval", "--data", str(library), "--split", "sideways", "--quiet"]) == 1
+
+
+def test_unlabelled_clips_load_group_and_search_but_are_refused_by_eval(library, tmp_path, capsys):
+    """A teacher's import: labels.csv rows with an empty label load as label "", the folder
+    can be indexed, searched and grouped (groups named by the labels there are, else by a
+    picture), and `storybeam eval` refuses it naming the row."""
+    from app.cli import main
+    from retrieval.library import MotionIndex, load_dataset, read_labels
+    from retrieval.library.grouping import group_folder
+
+    folder = tmp_path / "import"
+    folder.mkdir()
+    lines = (library / "labels.csv").read_text().splitlines()
+    out = [lines[0]]
+    for n, line in enumerate(lines[1:]):
+        trial, label, rest = line.split(",", 2)
+        (folder / f"{trial}.bvh").write_bytes((library / f"{trial}.bvh").read_bytes())
+        out.append(f"{trial},{label if n < 3 else ''},{rest}")  # only the first 3 clips keep a label
+    (folder / "labels.csv").write_text("\n".join(out) + "\n")
+    rows = read_labels(folder)
+    assert [r.label for r in rows][:3] != ["", "", ""] and [r.label for r in rows][3:] == [""] * 6
+    clips = load_dataset(folder, fps=30)
+    assert len(clips) == 9 and sum(not c.label for c in clips) == 6
+    index = MotionIndex.from_clips(clips, dims=3)
+    assert index.similar_to(clips[4].trial, k=2)[0].trial != clips[4].trial
+    grouping = group_folder(folder, dims=3, k=2).grouping
+    assert sorted(i for g in grouping.groups for i in g.members) == list(range(9))
+    for g in grouping.groups:
+        member_labels = [rows[i].label for i in g.members if rows[i].label]
+        if member_labels:  # named by its members' most common label
+            assert g.name in member_labels
+        else:  # no label among the members: a picture of the representative
+            assert g.name is None and g.representative in g.trials
+    assert main(["eval", "--data", str(folder), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "line 5" in err and "no label" in err
+    # a row without a trial or file is still refused, naming the line
+    (folder / "labels.csv").write_text(lines[0] + "\n,walk,s0,x.bvh,,x\n")
+    with pytest.raises(DatasetError, match="line 2.*empty trial or file"):
+        read_labels(folder)
 
 
 def test_cli_reports_bad_input_as_one_line(library, capsys):

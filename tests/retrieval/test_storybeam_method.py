@@ -13,7 +13,16 @@ from retrieval.dtw import dtw_features
 from retrieval.experiment import evaluate, subject_folds
 from retrieval.experiment.evaluation import EvaluationError
 from retrieval.features import MR17, STORYBEAM, get_feature_set, heading_rate, motion_features
-from retrieval.library import Clip, StoryBeamSearcher, clip_from_motion, dtw_features_abandon, dtw_features_gemm
+from retrieval.errors import StoryBeamError
+from retrieval.library import (
+    Clip,
+    MotionIndex,
+    StoryBeamSearcher,
+    clip_from_motion,
+    dtw_features_abandon,
+    dtw_features_gemm,
+)
+from retrieval.library.storybeam_search import centre
 from retrieval.motion import Joint, Motion, Skeleton, axis_rotation, load_motion, resample, save_bvh
 from retrieval.motion.body import JointMapError
 from tests.support.synthetic_motion import make_motion, make_skeleton
@@ -163,6 +172,38 @@ def test_rerank_kernel_numpy_path_is_bit_identical_to_the_compiled_one():
         assert dtw_features_abandon(x, y, np.inf, band, "numba") == dtw_features_abandon(x, y, np.inf, band, "numpy")
 
 
+def test_no_band_row_kernel_is_bit_identical_to_the_per_cell_kernel():
+    """Without a band the compiled path runs the row-vectorised kernel; a band wider than
+    both clips runs the per-cell one over the same cells: same distances bit for bit, the
+    same abandoning decisions."""
+    pytest.importorskip("numba")
+    rng = np.random.default_rng(5)
+    for t in range(40):
+        x = rng.normal(size=(int(rng.integers(1, 120)), 18))
+        y = rng.normal(size=(int(rng.integers(1, 120)), 18)) + rng.uniform(-0.5, 0.5)
+        wide = len(x) + len(y)
+        d = dtw_features_abandon(x, y, np.inf, wide, "numba")
+        assert dtw_features_abandon(x, y, np.inf, None, "numba") == d
+        assert dtw_features_abandon(x, y, np.inf, None, "numba") == dtw_features(x, y)
+        y_t = np.ascontiguousarray(y.T)
+        assert dtw_features_abandon(x, y, np.inf, None, "numba", y_t) == d
+        assert dtw_features_abandon(x, y, 0.8 * d, None, "numba", y_t) == dtw_features_abandon(x, y, 0.8 * d, wide, "numba")
+        for f in (0.5, 0.9, 1.0):
+            assert dtw_features_abandon(x, y, f * d, None, "numba") == dtw_features_abandon(x, y, f * d, wide, "numba")
+
+
+def test_shortlist_mode_runs_by_default_and_exact_on_request():
+    lib = _library()
+    runs = StoryBeamSearcher.fit(lib[4:], dims=4)
+    exact = StoryBeamSearcher.fit(lib[4:], dims=4, mode="exact")
+    assert runs.searcher.mode == "runs" and exact.searcher.mode == "exact"
+    assert StoryBeamSearcher.fit(lib[4:], dims=4, band=5).searcher.mode == "exact"  # runs has no band
+    for q in lib[:4]:  # either shortlist is re-ranked by the same exact float DTW
+        for s in (runs, exact):
+            h = s.search(q, k=1)[0]
+            assert h.distance == dtw_features(q, lib[4 + h.index])
+
+
 @pytest.mark.parametrize("backend", ["auto", "numpy"])
 def test_gemm_kernel_is_dtw_up_to_rounding_and_exactly_zero_on_itself(backend):
     rng = np.random.default_rng(2)
@@ -203,6 +244,60 @@ def test_search_with_the_whole_library_shortlisted_is_exact_dtw():
         top = s2.search(lib[i], k=1)[0]
         assert top.index == i and top.distance == 0.0
         assert s2.search(lib[i], k=1, exclude=i)[0].index != i
+
+
+def test_centre_removes_each_columns_clip_mean():
+    x = np.arange(12.0).reshape(4, 3) ** 2
+    assert np.allclose(centre(x), x - x.mean(axis=0))
+    assert np.allclose(centre(x).mean(axis=0), 0.0)
+    assert np.allclose(centre(x + np.array([1.0, -2.0, 5.0])), centre(x))
+
+
+@pytest.mark.parametrize("shortlist", [1, 3, 8])
+def test_find_is_exact_centred_dtw_over_the_centred_code_shortlist(shortlist):
+    lib = _library()
+    s = StoryBeamSearcher.fit(lib[4:], dims=4, shortlist=shortlist)
+    ident = s.identity_searcher()
+    assert ident is s.identity_searcher()  # built once
+    for q in lib[:4]:
+        res = ident.searcher.search([ident.quantizer.encode(centre(q))], k=max(shortlist, 2), parallel=False)
+        cands = [int(i) for i in res.indices[0]]
+        brute = sorted((dtw_features(centre(q), centre(lib[4 + i])), i) for i in cands)
+        hits = s.find(q, k=2)
+        assert [h.index for h in hits] == [i for _, i in brute[:2]]
+        assert [h.distance for h in hits] == pytest.approx([d for d, _ in brute[:2]], rel=1e-9)
+
+
+def test_find_sees_through_a_per_clip_offset_where_the_class_ranking_does_not():
+    """A clip comes back from another skeleton shifted by a per-clip offset; a near-duplicate
+    (another take) sits closer to the shifted copy than the clip itself by raw DTW. The class
+    ranking answers the near-duplicate, find answers the clip itself at centred distance 0."""
+    lib = _library()
+    offset = np.linspace(0.2, -0.2, lib[0].shape[1])
+    twin = lib[5] + offset + np.random.default_rng(9).normal(scale=0.01, size=lib[5].shape)
+    library = lib + [twin]
+    s = StoryBeamSearcher.fit(library, dims=4, shortlist=len(library))
+    query = lib[5] + offset
+    assert s.search(query, k=1)[0].index == len(library) - 1  # raw DTW: the twin
+    top = s.find(query, k=1)[0]
+    assert top.index == 5 and top.distance == pytest.approx(0.0, abs=1e-12)
+    assert s.find(query, k=1, exclude=5)[0].index != 5
+    with pytest.raises(StoryBeamError, match="find"):
+        s.find(query[:, :3])
+
+
+def test_motion_index_find_uses_the_identity_ranking_on_storybeam_indexes():
+    lib = _library(12)
+    clips = [Clip(f"c{i}", "walk", f, None, 30.0) for i, f in enumerate(lib)]
+    idx = MotionIndex.from_clips(clips, dims=4, feature_set="storybeam", method="storybeam")
+    for i in (0, 7):
+        shifted = lib[i] + 0.3
+        top = idx.find(shifted, k=3)
+        expect = idx._storybeam.find(np.asarray(shifted, dtype=np.float32).astype(np.float64), k=3)
+        assert [m.trial for m in top] == [f"c{h.index}" for h in expect]
+        assert top[0].trial == f"c{i}"
+    quant = MotionIndex.from_clips(clips, dims=4, feature_set="storybeam", method="quantized")
+    assert [m.trial for m in quant.find(lib[3], k=2)] == [m.trial for m in quant.query(lib[3], k=2)]
 
 
 # ------------------------------------------------------------------ the protocols
