@@ -20,6 +20,7 @@ from retrieval.dtw.lower_bounds import (
     envelope_sums,
     lb_envelope,
     lb_kim,
+    library_bounds,
     lower_bound,
 )
 from retrieval.dtw.range_bound import (
@@ -27,6 +28,7 @@ from retrieval.dtw.range_bound import (
     range_cover_numpy,
     range_lower_bound,
 )
+from retrieval.dtw.rowscan import dtw_rows_numpy
 from retrieval.dtw.runlength import (
     rle_dtw_numpy,
     rle_is_exact,
@@ -54,6 +56,8 @@ __all__ = [
     "envelope_sums",
     "lb_envelope",
     "lower_bound",
+    "library_bounds",
+    "dtw_rows_numpy",
     "run_length_encode",
     "run_length_decode",
     "rle_is_exact",

@@ -21,6 +21,9 @@ DTW runs (:mod:`retrieval.search.fast`).
 
 This module holds the plain numpy versions (reference and Android path); the compiled
 ones in :mod:`retrieval.search.fast` compute the same sums in the same order.
+:func:`library_bounds` computes the same three bounds for a whole library at once (the
+tablet's search): one look-up per (distinct query code, library vocabulary code), then
+``minimum.reduceat`` / ``add.reduceat`` over each clip's distinct codes.
 """
 from __future__ import annotations
 
@@ -66,3 +69,35 @@ def lb_envelope(a: np.ndarray, b: np.ndarray, table: DiffTable) -> float:
 def lower_bound(a: np.ndarray, b: np.ndarray, table: DiffTable) -> float:
     """The bound the fast search uses: max(LB_Kim, envelope rows, envelope columns)."""
     return max(lb_kim(a, b, table), lb_envelope(a, b, table))
+
+
+def library_bounds(a: np.ndarray, vocab: np.ndarray, dist_vidx: np.ndarray, dist_cnt: np.ndarray,
+                   dist_off: np.ndarray, first: np.ndarray, last: np.ndarray, lengths: np.ndarray,
+                   table: DiffTable) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`lower_bound` of query ``a`` against every clip of a library, vectorised.
+
+    The library is given by its vocabulary (sorted distinct codes it uses), each clip's
+    distinct codes as indices into it (``dist_vidx[dist_off[c]:dist_off[c+1]]``) with their
+    counts, its first and last codes and its length. The bounds are those of the module
+    docstring (each proven there): LB_Kim on the corners, the row envelope Σ_u count(u) ·
+    min_v D[u, v] over the clip's distinct codes v, the column envelope Σ_v count(v) ·
+    min_u D[u, v] over the query's distinct codes u; the maximum divided by ``x + y``.
+
+    Returns ``(bounds, rowmin, colmin, a_didx, R)``: ``rowmin[u, c]`` = query code u's
+    cheapest code in clip c, ``colmin[t]`` = vocabulary code t's cheapest query code,
+    ``a_didx[i]`` = frame i's index among the query's distinct codes, and ``R[u, t] =
+    D[u, vocab[t]]`` (float64), from which the search reads its cost matrices."""
+    a = np.asarray(a)
+    ua, a_didx, ca = np.unique(a, return_inverse=True, return_counts=True)
+    R = table.lookup(ua[:, None], np.asarray(vocab)[None, :]).astype(np.float64)
+    starts = np.asarray(dist_off[:-1], dtype=np.int64)
+    rowmin = np.minimum.reduceat(R[:, dist_vidx], starts, axis=1)
+    rows = (rowmin * ca[:, None].astype(np.float64)).sum(axis=0)
+    colmin = R.min(axis=0)
+    cols = np.add.reduceat(colmin[dist_vidx] * np.asarray(dist_cnt, dtype=np.float64), starts)
+    lengths = np.asarray(lengths, dtype=np.int64)
+    kim = table.lookup(np.full(len(first), a[0]), np.asarray(first)).astype(np.float64)
+    two = (len(a) > 1) | (lengths > 1)
+    kim = kim + np.where(two, table.lookup(np.full(len(last), a[-1]), np.asarray(last)).astype(np.float64), 0.0)
+    bounds = np.maximum(np.maximum(kim, rows), cols) / (len(a) + lengths)
+    return bounds, rowmin, colmin, a_didx.reshape(-1).astype(np.int64), R

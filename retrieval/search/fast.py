@@ -15,6 +15,10 @@ same neighbours, same distances bit for bit, ties broken by the lower library in
    O(runs × runs): the candidate is rejected without a DTW when it exceeds the k-th best,
    and its backward pass gives the exact DTW a per-(row-run, column-run) "cost still to
    come" that is never below the envelope's (``range_bound=False`` switches it off);
+   before it, the **segment-cover bound** (:mod:`retrieval.search.segment_bound`): the same
+   bound with the query's runs merged into :data:`SEGMENTS` segments, S × runs cells instead
+   of runs × runs, rejects most of those candidates more cheaply (counted as
+   ``range_rejected`` too);
    **early abandoning** — a DTW stops as soon as its frontier minimum plus the bound of
    the rows still to come exceeds the k-th best;
 4. **run-length DTW** (:mod:`retrieval.dtw.runlength`) — exact block DP over runs of equal
@@ -43,7 +47,8 @@ from retrieval.dtw import (
     band_limits,
     distinct_counts,
     dtw_cost_numpy,
-    lower_bound,
+    dtw_rows_numpy,
+    library_bounds,
     monotone_cover_numpy,
     resolve_backend,
     rle_is_exact,
@@ -54,9 +59,14 @@ from retrieval.dtw.jit import HAVE_NUMBA, numba
 if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is installed)
     from retrieval.dtw.range_bound import range_cover_both
     from retrieval.dtw.runlength import diff_cost, rle_dtw_raw
+    from retrieval.search.segment_bound import segment_cover_nb, segment_rows
 
 #: "exact": the seed's distance; "runs": the block-corner run-length approximation.
 MODES = ("exact", "runs")
+#: query segments of the segment-cover filter (:mod:`retrieval.search.segment_bound`); 0: off.
+#: Tried 3, 6, 8, 12, 16, each side by side with the search without the filter on the derived
+#: library: 6-12 gained most, 3 and 16 less (docs/retrieval-speed.md)
+SEGMENTS = 8
 #: the stages :meth:`FastSearcher.profile_stages` times, in order
 STAGES = ("pack", "rows", "bounds", "loop")
 
@@ -64,7 +74,7 @@ STAGES = ("pack", "rows", "bounds", "loop")
 if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
-    def _pack_one(seq, size):  # pragma: no cover
+    def _pack_one(seq, size):
         """Runs (value, length), each run's index among the distinct codes, and the sorted
         distinct codes with their counts, of one sequence of codes in [0, size) — what
         run_length_encode, distinct_counts and a searchsorted give, in two passes."""
@@ -176,7 +186,7 @@ class SearchStats:
     pruned: int = 0
     abandoned: int = 0
     completed: int = 0
-    range_rejected: int = 0  # of the abandoned: rejected by the range-cover bound before the exact DTW
+    range_rejected: int = 0  # of the abandoned: rejected by the segment- or range-cover bound before the exact DTW
 
     @property
     def pruned_fraction(self) -> float:
@@ -205,7 +215,7 @@ class SearchStats:
 if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
-    def _query_rows(q_dv, vocab, F, absdiff, shift, mask):  # pragma: no cover
+    def _query_rows(q_dv, vocab, F, absdiff, shift, mask):
         """R[u, t] = D[q_dv[u], vocab[t]] for every code of the library's vocabulary (float32,
         exact: the table's values are float32), and per vocabulary code its cheapest query
         code, colmin[t] = min_u R[u, t]. Columns are vocabulary indices (the library's
@@ -231,7 +241,7 @@ if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
     def _lb_pair(q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
-                 F, absdiff, shift, mask, colmin, R, row_out):  # pragma: no cover
+                 F, absdiff, shift, mask, colmin, R, row_out):
         """Normalised max(LB_Kim, envelope rows, envelope columns). ``R`` and ``colmin``
         come from :func:`_query_rows`: the rows need every (query code, candidate code)
         pair, the columns one load per distinct candidate code. Each query code's cheapest
@@ -262,7 +272,7 @@ if HAVE_NUMBA:
         return best / (nx + ny)
 
     @numba.njit(cache=True, nogil=True)
-    def _plain_dtw_raw(a_row, b, R, lo, hi, rest_row, rest_col, limit, norm, prev, cur):  # pragma: no cover
+    def _plain_dtw_raw(a_row, b, R, lo, hi, rest_row, rest_col, limit, norm, prev, cur):
         """Row-by-row look-up DTW with band limits, early abandoning and a pruned corridor
         (cells whose value plus the bound of the rows/columns still to come exceeds the
         limit are dead; a row stops where nothing live can feed it): the numbers of
@@ -319,7 +329,7 @@ if HAVE_NUMBA:
         return prev[ny - 1]
 
     @numba.njit(cache=True, nogil=True)
-    def _runs_dtw_raw(a_val, a_len, b_val, b_len, F, absdiff, shift, mask, rest_run, limit, norm, prev, cur):  # pragma: no cover
+    def _runs_dtw_raw(a_val, a_len, b_val, b_len, F, absdiff, shift, mask, rest_run, limit, norm, prev, cur):
         """Block-corner DTW over runs (the ``"runs"`` approximation): a diagonal step
         through block (p, q) costs c·max(h_p, w_q), a vertical one c·h_p, a horizontal one
         c·w_q. Each is the cost of a real warping path, so the result is >= the exact DTW
@@ -358,7 +368,7 @@ if HAVE_NUMBA:
         return prev[ky - 1]
 
     @numba.njit(cache=True, nogil=True)
-    def _band_limits_nb(nx, ny, band, lo, hi):  # pragma: no cover
+    def _band_limits_nb(nx, ny, band, lo, hi):
         """:func:`retrieval.dtw.kernels.band_limits` (band >= 0; band < 0 means none)."""
         if band < 0 or nx == 1:
             for i in range(nx):
@@ -380,7 +390,7 @@ if HAVE_NUMBA:
             hi[i] = int(min(max(y, 0.0), ny - 1))
 
     @numba.njit(cache=True, nogil=True)
-    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, out, rowmins):  # pragma: no cover
+    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, out, rowmins):
         """Bounds (:func:`_lb_pair`) of every candidate; ``rowmins[c, u]``: query code u's
         cheapest code in candidate c."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
@@ -393,7 +403,7 @@ if HAVE_NUMBA:
                               F, absdiff, shift, mask, colmin, R, rowmins[c])
 
     @numba.njit(cache=True, nogil=True, parallel=True)
-    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, R, colmin, out, rowmins):  # pragma: no cover
+    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, R, colmin, out, rowmins):
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
@@ -405,7 +415,7 @@ if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
     def _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx, out_dist,
-                stats, abandon=True, range_bound=False):  # pragma: no cover
+                stats, abandon=True, range_bound=False):
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
         (distance, then index). Writes out_idx/out_dist (k) and stats (5). ``LV``: the
         library's codes and run values as vocabulary indices (columns of ``R``)."""
@@ -465,6 +475,16 @@ if HAVE_NUMBA:
         mx_buf = np.empty(wide)  # range_cover_both's work rows
         my_buf = np.empty(wide)
         cp_buf = np.empty(wide)
+        # segment-cover filter (retrieval.search.segment_bound): the query's runs in a few segments
+        nseg = SEGMENTS if SEGMENTS < nruns else nruns
+        use_seg = use_range and SEGMENTS > 0 and nseg < nruns
+        seg_b = np.empty(nseg + 1, np.int64)
+        for s in range(nseg + 1):
+            seg_b[s] = (s * nruns + nseg // 2) // nseg
+        Rs = np.empty((nseg, R.shape[1]), np.float32)
+        seg_h = np.empty(nseg, np.int64)
+        if use_seg:
+            segment_rows(R, qrd[r0:r1], qrl[r0:r1], seg_b, Rs, seg_h)
         # Exact mode with exact arithmetic: the block-corner DTW of a few best-bound
         # candidates is an upper bound of their exact distance, so its k-th smallest value
         # bounds the k-th best distance from above before any exact DTW has run.
@@ -502,6 +522,12 @@ if HAVE_NUMBA:
                     acc += rm[qrd[r0 + p]] * qrl[r0 + p]
             kyc = lro[c + 1] - lro[c]
             rest2 = rest2_buf[:nruns * kyc].reshape((nruns, kyc))
+            if use_seg and thr < inf:
+                sb = segment_cover_nb(Rs, seg_h, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf)
+                if sb / norm > thr:
+                    abandoned += 1
+                    range_rejected += 1
+                    continue
             if use_range:
                 # order-aware bounds and "cost still to come" (retrieval.range_bound)
                 acc = 0.0
@@ -569,7 +595,7 @@ if HAVE_NUMBA:
         stats[4] = range_rejected
 
     @numba.njit(cache=True, nogil=True, parallel=True)
-    def _search_batch(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):  # pragma: no cover
+    def _search_batch(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):
         nq = Q[1].shape[0] - 1
         ncand = L[1].shape[0] - 1
         for qi in numba.prange(nq):
@@ -630,6 +656,7 @@ class FastSearcher:
         longest = int(self.library.lengths.max())
         self._longest = longest
         self.run_length = run_length
+        self._np_lib: dict | None = None
         self._shift = 2 * table.low_dims
         self._mask = (1 << self._shift) - 1
 
@@ -742,22 +769,116 @@ class FastSearcher:
         return res, times
 
     # ------------------------------------------------------------------ numpy path
+    def _numpy_library(self) -> dict:
+        """What the tablet's vectorised bounds take (built on the first numpy search)."""
+        if self._np_lib is None:
+            lib = self.library
+            self._np_lib = {"dist_vidx": self._vocab_index(lib.dist_val).astype(np.int64),
+                            "first": lib.codes[lib.code_off[:-1]], "last": lib.codes[lib.code_off[1:] - 1],
+                            "lengths": lib.lengths, "codes_vidx": self._vocab_index(lib.codes).astype(np.int64),
+                            "runs_vidx": self._vocab_index(lib.run_val).astype(np.int64)}
+        return self._np_lib
+
     def _search_numpy(self, packed: PackedCodes, k: int) -> SearchResult:
+        """The tablet's path. For the seed's distance with exact sums (the usual case) every
+        bound is computed for the whole library at once (:func:`retrieval.dtw.library_bounds`)
+        and each surviving candidate's DP runs row by row as min-plus scans with early
+        abandoning and a corridor (:func:`retrieval.dtw.dtw_rows_numpy`) — the same bounds,
+        order and pruning as the compiled path, the same answers bit for bit. Otherwise
+        (band, "runs" mode, inexact sums) :meth:`_search_numpy_plain`."""
+        longest = int(packed.lengths.max())
+        if not (self.mode == "exact" and self.band is None and self.use_bounds
+                and rle_is_exact(self.table.F, self._longest + longest)):
+            return self._search_numpy_plain(packed, k)
+        lib = self.library
+        nl = self._numpy_library()
+        shrink = 1.0 - 1e-9  # bound sums in numpy's order: keep every comparison on the safe side
+        out_idx = np.full((len(packed), k), -1, np.int64)
+        out_dist = np.full((len(packed), k), np.inf)
+        stats = SearchStats()
+        for qi in range(len(packed)):
+            a = packed.sequence(qi)
+            nx = len(a)
+            lbs, rowmin, colmin, a_didx, R = library_bounds(a, self._vocab, nl["dist_vidx"], lib.dist_cnt,
+                                                            lib.dist_off, nl["first"], nl["last"], nl["lengths"],
+                                                            self.table)
+            lbs *= shrink
+            Ra = R[a_didx]  # each query frame's table row over the vocabulary
+            Rq_runs = R[packed.run_didx[packed.run_off[qi]:packed.run_off[qi + 1]]]  # and each query run's
+            q_lens = packed.run_len[packed.run_off[qi]:packed.run_off[qi + 1]]
+            order = np.argsort(lbs, kind="stable")
+            best: list[tuple[float, int]] = []
+            pruned = rejected = abandoned = 0
+            # an upper bound of the k-th best distance before any DP: the cost of one real
+            # warping path (the straight line from corner to corner, a monotone staircase
+            # with steps of at most one row and one column) for the k + 2 best-bound
+            # candidates; the k-th smallest of them is >= the k-th best distance
+            cap = np.inf
+            if len(order) >= k:
+                ubs = []
+                for c in order[:k + 2]:
+                    b_v = nl["codes_vidx"][lib.code_off[c]:lib.code_off[c + 1]]
+                    steps = np.arange(max(nx, len(b_v)))
+                    span = max(len(steps) - 1, 1)
+                    ubs.append(float(Ra[steps * (nx - 1) // span, b_v[steps * (len(b_v) - 1) // span]].sum())
+                               / (nx + len(b_v)))
+                cap = sorted(ubs)[k - 1]
+            for pos, c in enumerate(order):
+                thr = min(best[k - 1][0] if len(best) >= k else np.inf, cap)
+                if lbs[c] > thr:
+                    pruned = len(order) - pos
+                    break
+                b_v = nl["codes_vidx"][lib.code_off[c]:lib.code_off[c + 1]]
+                norm = nx + len(b_v)
+                if self.range_bound:
+                    c_lens = lib.run_len[lib.run_off[c]:lib.run_off[c + 1]]
+                    cost = Rq_runs[:, nl["runs_vidx"][lib.run_off[c]:lib.run_off[c + 1]]]
+                    rb = max(monotone_cover_numpy(cost, q_lens), monotone_cover_numpy(cost.T, c_lens))
+                    if rb * shrink / norm > thr:
+                        rejected += 1
+                        continue
+                per_row = rowmin[a_didx, c]
+                rest_row = (np.cumsum(per_row[::-1])[::-1] - per_row) * shrink
+                per_col = colmin[b_v]
+                rest_col = (np.cumsum(per_col[::-1])[::-1] - per_col) * shrink
+                raw = dtw_rows_numpy(Ra[:, b_v], rest_row, rest_col, thr * norm * (1.0 + 1e-9))
+                if raw == np.inf:
+                    abandoned += 1
+                    continue
+                best = sorted(best + [(float(raw) / norm, int(c))])[:k]
+            for t, (d, c) in enumerate(best):
+                out_idx[qi, t], out_dist[qi, t] = c, d
+            stats.candidates += len(lib)
+            stats.pruned += pruned
+            stats.abandoned += rejected + abandoned
+            stats.range_rejected += rejected
+            stats.completed += len(lib) - pruned - rejected - abandoned
+        return SearchResult(out_idx, out_dist, stats)
+
+    def _search_numpy_plain(self, packed: PackedCodes, k: int) -> SearchResult:
+        """The numpy path for a band, the \"runs\" mode or sums that may round: per-candidate
+        bounds and the anti-diagonal DP of :mod:`retrieval.dtw.kernels`."""
 
         lib = self.library
         # the range-cover bound (rows and columns, each a vectorised monotone-choice DP
         # per run) rejects most candidates that pass the envelope before their DP runs; it
         # needs the seed's unconstrained distance. Its sums may round differently from the
         # DP's: shrink it by a relative 1e-9 so the comparison stays safe.
-        use_range = self.use_bounds and self.range_bound and self.mode == "exact" and self.band is None
+        # The "runs" distance (block-corner DTW over runs) is a minimum over a subset of the
+        # seed's warping paths, so it is >= the seed's distance and every bound of the seed's
+        # distance bounds it too: the range-cover bound serves both modes.
+        use_range = self.use_bounds and self.range_bound and self.band is None
+        nl = self._numpy_library() if self.use_bounds else None
+        exact_sums = rle_is_exact(self.table.F, self._longest + int(packed.lengths.max()))
         rejected = 0
         out_idx = np.full((len(packed), k), -1, np.int64)
         out_dist = np.full((len(packed), k), np.inf)
         stats = SearchStats()
         for qi in range(len(packed)):
             a = packed.sequence(qi)
-            if self.use_bounds:
-                lbs = np.array([lower_bound(a, lib.sequence(c), self.table) for c in range(len(lib))])
+            if self.use_bounds:  # every clip's bound at once (numpy's summation order: shrunk to stay safe)
+                lbs = library_bounds(a, self._vocab, nl["dist_vidx"], lib.dist_cnt, lib.dist_off, nl["first"],
+                                     nl["last"], nl["lengths"], self.table)[0] * (1.0 - 1e-9)
             else:
                 lbs = np.zeros(len(lib))
             order = np.argsort(lbs, kind="stable")
@@ -782,7 +903,11 @@ class FastSearcher:
                 if self.mode == "runs":
                     av, al = run_length_encode(a)
                     bv, bl = run_length_encode(b)
-                    raw = runs_dtw_numpy(self.table.lookup(av[:, None], bv[None, :]), al, bl)
+                    block = self.table.lookup(av[:, None], bv[None, :])
+                    if exact_sums:  # row scans with early abandoning: the same sums, exactly
+                        raw = runs_dtw_rows_numpy(block, al, bl, thr * (len(a) + len(b)))
+                    else:
+                        raw = runs_dtw_numpy(block, al, bl)
                 else:
                     lo, hi = band_limits(len(a), len(b), self.band)
                     raw = dtw_cost_numpy(self.table.lookup(a[:, None], b[None, :]), lo, hi)
@@ -821,6 +946,39 @@ def runs_dtw_numpy(cost: np.ndarray, a_len: np.ndarray, b_len: np.ndarray) -> fl
         new[p + 1] = np.minimum(np.minimum(diag, up), lf)
         before, last = last, new
     return float(last[kx])
+
+
+def runs_dtw_rows_numpy(cost: np.ndarray, a_len: np.ndarray, b_len: np.ndarray, limit: float = np.inf) -> float:
+    """The ``"runs"`` block-corner DTW (``_runs_dtw_raw``) one query run (row) at a time,
+    abandoned (``inf``) as soon as a whole row exceeds ``limit`` (raw, unnormalised).
+
+    Row p from row p - 1: ``X[q] = min(prev[q-1] + c·max(h_p, w_q), prev[q] + c·h_p)`` (the
+    diagonal and vertical steps, vectorised), then the horizontal steps
+    ``cur[q] = min(X[q], cur[q-1] + c_q·w_q)``, a min-plus scan solved in closed form:
+    with ``S[q] = Σ_{i<=q} c_i·w_i``, ``cur[q] = S[q] + min_{j<=q}(X[j] - S[j])``
+    (``np.minimum.accumulate``). Every cell of a row is >= the row's minimum and every
+    path crosses every row, so the distance is >= that minimum: abandoning when it exceeds
+    ``limit`` is safe. The sums are regrouped, so the value equals the sequential DP bit
+    for bit only when every sum is exact (:func:`retrieval.dtw.rle_is_exact`), which is
+    when the caller uses it."""
+    kx, ky = cost.shape
+    h = np.asarray(a_len, dtype=np.float64)
+    w = np.asarray(b_len, dtype=np.float64)
+    prev = None
+    for p in range(kx):
+        c = np.asarray(cost[p], dtype=np.float64)
+        if prev is None:
+            x = np.full(ky, np.inf)
+            x[0] = c[0] * max(h[0], w[0])
+        else:
+            x = prev + c * h[p]
+            x[1:] = np.minimum(x[1:], prev[:-1] + c[1:] * np.maximum(h[p], w[1:]))
+        steps = np.cumsum(c * w)
+        cur = steps + np.minimum.accumulate(x - steps)
+        if cur.min() > limit:
+            return np.inf
+        prev = cur
+    return float(prev[ky - 1])
 
 
 def warm_up() -> None:

@@ -1,0 +1,118 @@
+"""Segment-cover bound (retrieval.search.segment_bound): below the seed's DTW on random and
+real codes, equal to the row range-cover bound with one run per segment, compiled = numpy,
+and the search that uses it as a filter still returns the seed's answers."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from retrieval.codes import DiffTable, Quantizer, full_table
+from retrieval.dtw import dtw_codes
+from retrieval.dtw.range_bound import monotone_cover_numpy
+from retrieval.dtw.runlength import run_length_decode, run_length_encode
+from retrieval.search import FastSearcher, brute_force
+from retrieval.search.segment_bound import segment_cover_numpy, segment_split
+
+
+def _slow_codes(rng: np.random.Generator, max_runs: int = 30, max_run: int = 8) -> np.ndarray:
+    k = int(rng.integers(1, max_runs))
+    vals = rng.integers(0, 4096, k) if rng.random() < 0.4 else rng.integers(0, 24, k) * 37 % 4096
+    return run_length_decode(vals, rng.integers(1, max_run + 1, k))
+
+
+def _segment_costs(a: np.ndarray, b: np.ndarray, table: DiffTable, n_seg: int):
+    """(C, segment heights, candidate run widths), straight from the definition."""
+    av, al = run_length_encode(a)
+    bv, bl = run_length_encode(b)
+    cost = table.lookup(av[:, None], bv[None, :]).astype(np.float64)
+    bounds = segment_split(len(av), n_seg)
+    C = np.array([cost[bounds[s]:bounds[s + 1]].min(axis=0) for s in range(len(bounds) - 1)])
+    H = np.array([al[bounds[s]:bounds[s + 1]].sum() for s in range(len(bounds) - 1)])
+    return C, H, bl, bounds, av, al
+
+
+@pytest.fixture(scope="module")
+def tables():
+    c = np.sort(np.random.default_rng(3).dirichlet(np.ones(17)))[::-1][:6]
+    return full_table(c), DiffTable.from_ratios(c)
+
+
+def test_segments_split_runs_evenly_and_cover_all():
+    for n_runs in range(1, 40):
+        for n_seg in range(1, 12):
+            b = segment_split(n_runs, n_seg)
+            assert b[0] == 0 and b[-1] == n_runs and len(b) == min(n_runs, n_seg) + 1
+            assert np.all(np.diff(b) >= 1) and np.diff(b).max() - np.diff(b).min() <= 1
+
+
+def test_segment_cover_is_below_the_dtw_and_equals_range_cover_with_one_run_each(tables):
+    full, diff = tables
+    rng = np.random.default_rng(21)
+    positive = 0
+    for _ in range(300):
+        a, b = _slow_codes(rng), _slow_codes(rng)
+        raw = dtw_codes(a, b, full, normalize=False)
+        for n_seg in (1, 2, 3, 6, 100):
+            C, H, W, _, av, al = _segment_costs(a, b, diff, n_seg)
+            sb = segment_cover_numpy(C, H, W)
+            assert sb <= raw
+            positive += sb > 0
+        C1, H1, W1, _, av, al = _segment_costs(a, b, diff, len(a))  # one run per segment
+        cost = diff.lookup(av[:, None], run_length_encode(b)[0][None, :])
+        assert segment_cover_numpy(C1, H1, W1) == max(monotone_cover_numpy(cost, al),
+                                                      monotone_cover_numpy(cost.T, W1))
+    assert positive > 100  # the inequality is not vacuous
+
+
+def test_compiled_segment_cover_equals_numpy(tables):
+    pytest.importorskip("numba")
+    from retrieval.search.segment_bound import segment_cover_nb, segment_rows
+    _, diff = tables
+    rng = np.random.default_rng(22)
+    for _ in range(200):
+        a, b = _slow_codes(rng), _slow_codes(rng)
+        n_seg = int(rng.integers(1, 9))
+        C, H, W, bounds, av, al = _segment_costs(a, b, diff, n_seg)
+        vocab = np.unique(np.concatenate([a, b]))
+        qd, q_rows = np.unique(av, return_inverse=True)
+        R = diff.lookup(qd[:, None], vocab[None, :]).astype(np.float32)
+        Rs = np.empty((len(bounds) - 1, len(vocab)), np.float32)
+        Hs = np.empty(len(bounds) - 1, np.int64)
+        segment_rows(R, q_rows.astype(np.int64), al, bounds, Rs, Hs)
+        bv, bl = run_length_encode(b)
+        work = np.empty(len(bv) + len(av) + 2)
+        got = segment_cover_nb(Rs, Hs, np.searchsorted(vocab, bv).astype(np.int32), bl, work, np.empty_like(work))
+        assert np.array_equal(Hs, H)
+        assert got == segment_cover_numpy(C, H, W)
+
+
+def test_search_with_the_segment_filter_equals_brute_force_on_long_queries(tables):
+    full, diff = tables
+    rng = np.random.default_rng(23)
+    lib = [_slow_codes(rng, max_runs=60, max_run=10) for _ in range(90)]
+    lib[7] = lib[3].copy()  # a tie
+    qs = [_slow_codes(rng, max_runs=60, max_run=10) for _ in range(10)] + [lib[3], lib[50][2:-2]]
+    for k in (1, 3):
+        idx, dist = brute_force(qs, lib, full, k=k)
+        res = FastSearcher(lib, diff).search(qs, k=k, parallel=False)
+        assert np.array_equal(res.indices, idx) and np.array_equal(res.distances, dist)
+
+
+def test_segment_cover_and_search_on_real_cmu_clips(cmu_dir):
+    from retrieval.experiment import stack_frames, stratified_subset
+    from retrieval.library import load_dataset, read_labels
+
+    clips = stratified_subset(load_dataset(cmu_dir, fps=30, rows=read_labels(cmu_dir)), 24, seed=4)
+    q = Quantizer.fit(stack_frames([c.features for c in clips[6:]]), 6)
+    diff, full = DiffTable.from_ratios(q.ratios), q.table()
+    codes = [q.encode(c.features)[:400] for c in clips]
+    queries, lib = codes[:6], codes[6:]
+    for a in queries:
+        for b in lib:
+            raw = dtw_codes(a, b, full, normalize=False)
+            for n_seg in (2, 8):
+                C, H, W, *_ = _segment_costs(a, b, diff, n_seg)
+                assert segment_cover_numpy(C, H, W) <= raw
+    idx, dist = brute_force(queries, lib, full, k=2)
+    res = FastSearcher(lib, diff).search(queries, k=2, parallel=False)
+    assert np.array_equal(res.indices, idx) and np.array_equal(res.distances, dist)
