@@ -60,7 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--screen", choices=SCREENS, default=None, help="with --screenshot: which screen (default editor)")
     p.add_argument("--size", default="1280x800", help="window size WxH (default 1280x800)")
     p.add_argument("--camera", metavar="SOURCE",
-                   help="the rig's camera: a device number (0), a video file (session.mp4) or a folder of "
+                   help="the rig's camera: a device number (0), the Kivy camera (kivy, kivy:1: Android's "
+                        "camera), a video file (session.mp4) or a folder of "
                         "images (frames/); a recording plays looped at its frame rate in place of the camera. "
                         "Calibration: camera.json + projector.json in the profile folder, else beside the "
                         "recording (default: the teacher's setting, else 0)")
@@ -87,25 +88,13 @@ def _parse_size(text: str) -> tuple[int, int]:
 def _camera_choice(option: str | None, db: Path) -> str:
     """``--camera``, else the teacher's saved choice, else device 0. A recording given with
     ``--camera`` is checked here (a missing or unreadable file is one clear error before any
-    window opens); a saved choice that no longer opens falls back to device 0 with a warning."""
-    from app.scene.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice  # deferred: app start-up only
-    from app.story.storage import ProfileStore  # deferred: as above
+    window opens); a saved choice that no longer opens falls back to device 0 with a warning.
+    ``kivy`` / ``kivy:N`` (the Kivy camera) is opened by the app on its main thread."""
+    from app.scene.app_renderer import DEFAULT_CAMERA, check_camera_choice, saved_camera_choice  # deferred: app start-up only
 
     if option is not None:
         return check_camera_choice(option)  # raises CameraSourceError naming the problem
-    saved = None
-    if db.is_file():
-        try:
-            with ProfileStore(db) as store:
-                saved = store.get_setting(CAMERA_SETTING)
-        except StoryBeamError:
-            pass  # an unreadable profile is the app's to recover (it opens a fresh one); the default camera
-    if saved:
-        try:
-            return check_camera_choice(saved)
-        except StoryBeamError as exc:
-            print(f"warning: the saved rig camera cannot be used ({exc}); using camera {DEFAULT_CAMERA}")
-    return DEFAULT_CAMERA
+    return saved_camera_choice(db, DEFAULT_CAMERA)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -183,6 +172,10 @@ def run(args: argparse.Namespace) -> int:
             frame = getattr(shown, "last_stage_frame", None)
             if frame is not None:
                 info.update(view=frame.view, tracking=frame.state, live_rig=frame.live)
+            if self.rig_camera is not None:
+                info["rig_camera"] = self.rig_camera.name
+            if self.projector_window is not None:  # the light also on the second display
+                info["projector_window"] = list(self.projector_window.display)
             return info
 
     use_3d = args.preview == "3d" or (args.preview == "auto" and (screenshot is None or screen in ("play", "projector")))

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Callable
 
 from app.story import Scene
+from retrieval.errors import StoryBeamError
 
 log = logging.getLogger(__name__)
 
@@ -24,6 +25,56 @@ log = logging.getLogger(__name__)
 CAMERA_SETTING = "rig_camera"
 #: the camera source when neither ``--camera`` nor the setting names one
 DEFAULT_CAMERA = "0"
+#: the camera choice that names the Kivy camera (Android's camera): ``kivy`` (camera 0) or
+#: ``kivy:N``; made by the app on Kivy's main thread (:mod:`app.ui.kivy_camera`), not here
+KIVY_CAMERA = "kivy"
+#: the rig's calibration files, in the profile folder (or beside a recording)
+CALIBRATION_FILES = ("camera.json", "projector.json")
+
+
+def kivy_camera_index(choice: object) -> int | None:
+    """The camera index when ``choice`` names the Kivy camera (``kivy`` = 0, ``kivy:N`` = N), else None."""
+    if not isinstance(choice, str):
+        return None
+    text = choice.strip().lower()
+    if text == KIVY_CAMERA:
+        return 0
+    head, sep, index = text.partition(":")
+    return int(index) if head == KIVY_CAMERA and sep and index.isdigit() else None
+
+
+def has_calibration(folder: Path | None) -> bool:
+    """True when ``folder`` holds both calibration files (:data:`CALIBRATION_FILES`)."""
+    return folder is not None and all((Path(folder) / name).is_file() for name in CALIBRATION_FILES)
+
+
+def default_camera_choice(profile_dir: Path | None, android: bool) -> str | None:
+    """The rig camera when neither ``--camera`` nor the teacher's setting names one: on
+    Android the Kivy camera (the tablet's own) once the rig is calibrated, else None (the
+    synthetic rig: there is no OpenCV device to open); elsewhere :data:`DEFAULT_CAMERA`."""
+    if not android:
+        return DEFAULT_CAMERA
+    return KIVY_CAMERA if has_calibration(profile_dir) else None
+
+
+def saved_camera_choice(db: Path, default: str | None = DEFAULT_CAMERA) -> str | None:
+    """The teacher's saved rig camera (:data:`CAMERA_SETTING`) when it is still usable,
+    else ``default``; a saved choice that no longer opens is reported as a warning."""
+    from app.story.storage import ProfileStore  # deferred: app start-up only
+
+    saved = None
+    if Path(db).is_file():
+        try:
+            with ProfileStore(db) as store:
+                saved = store.get_setting(CAMERA_SETTING)
+        except StoryBeamError:
+            pass  # an unreadable profile is the app's to recover (it opens a fresh one); the default camera
+    if saved:
+        try:
+            return check_camera_choice(saved)
+        except StoryBeamError as exc:
+            print(f"warning: the saved rig camera cannot be used ({exc}); using camera {default}")
+    return default
 
 
 @dataclass(frozen=True)
@@ -32,17 +83,24 @@ class StageJob:
 
     scene: Scene
     view: str = "projector"
+    #: a camera source the UI thread made (the Kivy camera, :mod:`app.ui.kivy_camera`):
+    #: the stage's live rig reads it; a new one replaces the stage's rig
+    camera: object = None
 
 
 def check_camera_choice(text: str) -> str:
-    """A rig camera choice as it is saved and used: a device number as is; a video file or
-    a folder of images only if it opens (else :class:`ar.camera_sources.CameraSourceError`,
-    naming the source and the problem)."""
+    """A rig camera choice as it is saved and used: a device number as is; the Kivy camera
+    (``kivy``, ``kivy:N``: opened by the app on its main thread, so not checked here); a
+    video file or a folder of images only if it opens (else
+    :class:`ar.camera_sources.CameraSourceError`, naming the source and the problem)."""
     from ar.camera_sources import CameraSourceError, open_camera_source  # deferred: OpenCV, only to check a recording
 
     choice = (text or "").strip()
     if not choice:
-        raise CameraSourceError("''", "empty camera source (expected a number, a video file or a folder)")
+        raise CameraSourceError("''", "empty camera source (expected a number, kivy, a video file or a folder)")
+    index = kivy_camera_index(choice)
+    if index is not None:
+        return KIVY_CAMERA if index == 0 else f"{KIVY_CAMERA}:{index}"
     if not choice.isdigit():
         open_camera_source(choice, paced=False).close()
     return choice
@@ -70,6 +128,7 @@ class AppRenderer:
         self.draw = draw
         self._preview = None
         self._stage = None
+        self._stage_camera = None  # the ready camera source (StageJob.camera) the stage was opened with
 
     def __call__(self, job: Scene | StageJob, t: float):
         # The 3-D modules (retargeting, OpenCV; pyrender only when draw="pyrender", on the
@@ -79,9 +138,17 @@ class AppRenderer:
         from app.scene.stage import StageError, StageRenderer, SyntheticRig  # deferred: as above
 
         if isinstance(job, StageJob):
+            if self._stage is not None and job.camera is not self._stage_camera:
+                self._stage.close()  # the UI made a new camera (or released it): reopen the rig on it
+                self._stage = None
             if self._stage is None:
-                self._stage = StageRenderer(rig=self.rig, profile_dir=self.profile_dir, camera=self.camera,
+                # a Kivy camera choice is opened by the UI thread and arrives in the job;
+                # without one (no calibration, no camera) the synthetic rig
+                camera = job.camera if job.camera is not None else (
+                    None if kivy_camera_index(self.camera) is not None else self.camera)
+                self._stage = StageRenderer(rig=self.rig, profile_dir=self.profile_dir, camera=camera,
                                             draw=self.draw)
+                self._stage_camera = job.camera
             try:
                 return self._stage.render(job.scene, t, job.view)
             except StageError as exc:
@@ -114,7 +181,10 @@ def app_renderer_factory(profile_dir: Path | None = None, camera: int | str | No
         return AppRenderer(profile_dir, camera=camera, draw=None if renderer == "kivy-gl" else "pyrender")
     make.supports_stage = True
     make.renderer = renderer
+    make.camera = camera  # the app opens a Kivy camera choice itself (StoryBeamApp.open_rig_camera)
     return make
 
 
-__all__ = ["StageJob", "AppRenderer", "app_renderer_factory", "RENDERERS", "CAMERA_SETTING", "DEFAULT_CAMERA", "check_camera_choice"]
+__all__ = ["StageJob", "AppRenderer", "app_renderer_factory", "RENDERERS", "CAMERA_SETTING", "DEFAULT_CAMERA", "check_camera_choice",
+           "KIVY_CAMERA", "CALIBRATION_FILES", "kivy_camera_index", "has_calibration", "default_camera_choice",
+           "saved_camera_choice"]

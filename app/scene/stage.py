@@ -185,17 +185,20 @@ def _calibration_files(folder: Path | None) -> tuple[Path, Path] | None:
     return (camera_json, projector_json) if camera_json.is_file() and projector_json.is_file() else None
 
 
-def open_rig(profile_dir: Path | None, board: Board, fps: float = 30.0, camera: int | str | None = 0):
+def open_rig(profile_dir: Path | None, board: Board, fps: float = 30.0,
+             camera: int | str | CameraSource | None = 0):
     """A :class:`LiveRig` when calibration files are found and the camera source opens,
     else the :class:`SyntheticRig` (preview mode). Never raises for a missing rig.
 
     ``camera``: a device number, a video file or a folder of images (``storybeam app
-    --camera``, the teacher's setting); ``None`` = the synthetic rig. Calibration files
-    come from the profile folder, else (for a recording) from the recording's folder."""
+    --camera``, the teacher's setting), or a source already open (the Kivy camera, made by
+    the app on its main thread); ``None`` = the synthetic rig. Calibration files come from
+    the profile folder, else (for a recording) from the recording's folder."""
     if camera is not None:
         path = Path(str(camera))
         files = _calibration_files(profile_dir)
-        if files is None and not str(camera).strip().isdigit():
+        recording = not isinstance(camera, CameraSource) and not str(camera).strip().isdigit()
+        if files is None and recording:
             files = _calibration_files(path if path.is_dir() else path.parent)
         if files is not None:
             try:

@@ -8,6 +8,7 @@ It imports the story, the services and the light part of :mod:`app.scene` only: 
 from __future__ import annotations
 
 import logging
+import os
 from pathlib import Path
 from typing import Callable
 
@@ -18,17 +19,21 @@ from kivy.metrics import dp
 from kivy.uix.boxlayout import BoxLayout
 from kivy.uix.modalview import ModalView
 from kivy.uix.screenmanager import NoTransition, ScreenManager
+from kivy.utils import platform
 
 from app.paths import FONT_PATH
 from app.scene import RenderThread, StageJob, app_exporter, available
+from app.scene.app_renderer import has_calibration, kivy_camera_index
 from app.services import MotionCatalog, ThumbnailCache
 from app.story import ProfileStore, Scene, StorageError, Story, StoryEditor, demo_story, prune_narrations
 from app.ui.editor import EditorScreen
 from app.ui.home import HomeScreen
 from app.ui.play import PlayScreen, ProjectorScreen
+from app.ui.projector_window import ProjectorWindow, second_display
 from app.ui.strings import LANGUAGES, tr
 from app.ui.teacher import CalibrationScreen, PinScreen, TeacherScreen
 from app.ui.widgets import big_label, filled
+from retrieval.errors import StoryBeamError
 
 log = logging.getLogger(__name__)
 
@@ -69,6 +74,15 @@ class StoryBeamApp(App):
         self.teacher_session_id: int | None = None
         self.projector_return = "editor"
         self.lang = "ja"
+        #: the rig's Kivy camera while the projector screen shows (:meth:`open_rig_camera`)
+        self.rig_camera = None
+        self._rig_camera_failed = False  # said once per visit to the projector screen
+        #: ``index -> Kivy Camera-like object`` for :class:`app.ui.kivy_camera.KivyCameraSource`
+        #: (tests give a stand-in; None = ``kivy.core.camera.Camera``)
+        self.kivy_camera_factory: Callable | None = None
+        #: the projector's own window on a second display while the projector screen shows
+        #: (:mod:`app.ui.projector_window`)
+        self.projector_window = None
 
     # -- set-up ---------------------------------------------------------------------
     @property
@@ -130,6 +144,8 @@ class StoryBeamApp(App):
         return self.sm
 
     def on_stop(self):
+        self.release_rig_camera()
+        self.close_projector_window()
         if self.renderer is not None:
             self.renderer.stop()
         if self.store is not None:
@@ -242,9 +258,76 @@ class StoryBeamApp(App):
                 and bool(getattr(self.renderer_factory, "supports_stage", False)))
 
     def request_stage_frame(self, scene, t: float, view: str, callback) -> None:
-        """Ask the render thread for a projector-stage frame (:class:`app.scene.stage.StageFrame`)."""
+        """Ask the render thread for a projector-stage frame (:class:`app.scene.stage.StageFrame`);
+        the rig's Kivy camera, when open, goes with it (the stage's live rig reads it)."""
         if self.renderer is not None and self.renderer.alive:
-            self.renderer.request(StageJob(Scene.from_dict(scene.to_dict()), view), t, callback)
+            self.renderer.request(StageJob(Scene.from_dict(scene.to_dict()), view, self.rig_camera), t, callback)
+
+    def open_rig_camera(self):
+        """On Kivy's main thread (the projector screen's entry): when the rig's camera choice
+        names the Kivy camera (``kivy``, ``kivy:N``) and the profile folder holds the
+        calibration files, open it (:class:`app.ui.kivy_camera.KivyCameraSource`; the stage's
+        live rig reads it on the render thread). Returns the open source, or None (another
+        camera choice, no calibration: the stage opens its own rig; a camera that does not
+        open is said on screen and the synthetic rig is used)."""
+        if self.rig_camera is not None or self._rig_camera_failed:
+            return self.rig_camera
+        index = kivy_camera_index(getattr(self.renderer_factory, "camera", None))
+        if index is None or not self.stage_available() or not has_calibration(self.profile_dir):
+            return None
+        from app.ui.kivy_camera import KivyCameraSource  # deferred: only for a Kivy camera choice
+        try:
+            camera = self.kivy_camera_factory(index) if self.kivy_camera_factory is not None else None
+            self.rig_camera = KivyCameraSource(index, camera=camera)
+        except StoryBeamError as exc:
+            self._rig_camera_failed = True
+            log.warning("%s; the projector uses the synthetic rig", exc)
+            self.show_message(self.t("error", why=str(exc)))
+        return self.rig_camera
+
+    def open_projector_window(self):
+        """When a second display exists (:func:`app.ui.projector_window.second_display`),
+        start the projector window there (a second process; this window stays where it
+        is). Returns it, or None (one display: *Full screen* is the projector mode; Android,
+        where an app has one window and one process)."""
+        if self.projector_window is not None or platform == "android":
+            return self.projector_window
+        try:
+            display = second_display()
+            if display is not None:
+                self.projector_window = ProjectorWindow(
+                    display, headless=os.environ.get("SDL_VIDEODRIVER") == "offscreen")
+        except StoryBeamError as exc:
+            log.warning("no projector window: %s", exc)
+            self.show_message(self.t("error", why=str(exc)))
+        return self.projector_window
+
+    def feed_projector_window(self, light) -> None:
+        """Show the light image (RGB) in the projector window, if one is open (never waits)."""
+        window = self.projector_window
+        if window is None:
+            return
+        if not window.alive:  # closed by hand, or crashed: the show goes on here
+            log.warning("the projector window has gone")
+            self.close_projector_window()
+            return
+        try:
+            window.show(light)
+        except StoryBeamError as exc:
+            log.warning("projector window: %s", exc)
+
+    def close_projector_window(self) -> None:
+        window, self.projector_window = self.projector_window, None
+        if window is not None:
+            window.close()
+
+    def release_rig_camera(self) -> None:
+        """On Kivy's main thread (leaving the projector screen, closing the app): stop the
+        Kivy camera; the stage's live rig sees it closed and is reopened on the next one."""
+        camera, self.rig_camera = self.rig_camera, None
+        self._rig_camera_failed = False
+        if camera is not None:
+            camera.close()
 
 
 __all__ = ["StoryBeamApp", "register_fonts"]

@@ -8,7 +8,10 @@ mailbox (RGBA bottom-up rows -> BGR top-down, the order OpenCV and the tracker u
 waits for the next new frame. A frame the grabber has not collected when the next one
 arrives is replaced (the newest wins) and counted in :attr:`KivyCameraSource.replaced`.
 
-Create it on Kivy's main thread (the camera provider's callbacks run there).
+Create and close it on Kivy's main thread (the camera provider's callbacks run there):
+for a ``kivy`` / ``kivy:N`` camera choice the app does so when the projector screen opens
+and leaves (:meth:`app.ui.app.StoryBeamApp.open_rig_camera`), and the stage's live rig
+reads it on the render thread.
 """
 from __future__ import annotations
 
@@ -34,16 +37,16 @@ class KivyCameraSource(CameraSource):
         self._pending: np.ndarray | None = None
         self._closed = False
         self.replaced = 0
-        if camera is None:
-            from kivy.core.camera import Camera as CoreCamera  # deferred: the camera provider loads on first use
+        try:
+            if camera is None:
+                from kivy.core.camera import Camera as CoreCamera  # deferred: the camera provider loads on first use
 
-            try:
                 camera = CoreCamera(index=index, resolution=resolution, stopped=True)
-            except Exception as exc:  # noqa: BLE001 - every provider fails its own way; one clear error
-                raise CameraSourceError(self.name, f"Kivy cannot open this camera ({exc})") from None
-        self._camera = camera
-        camera.bind(on_texture=self._on_texture)
-        camera.start()
+            self._camera = camera
+            camera.bind(on_texture=self._on_texture)
+            camera.start()
+        except Exception as exc:  # noqa: BLE001 - every provider fails its own way; one clear error
+            raise CameraSourceError(self.name, f"Kivy cannot open this camera ({exc})") from None
 
     def _on_texture(self, camera, *_args) -> None:
         """On Kivy's main thread: copy the new frame into the mailbox."""
@@ -75,11 +78,22 @@ class KivyCameraSource(CameraSource):
         return frame
 
     def close(self) -> None:
+        """Stop the camera. Safe from any thread and twice: off Kivy's main thread (the
+        rig's threads, the render thread when a stage closes) the reader is woken at once
+        and the camera itself is stopped on the main thread's next clock tick."""
         with self._cond:
             if self._closed:
                 return
             self._closed = True
             self._cond.notify_all()
+        if threading.current_thread() is threading.main_thread():
+            self._stop_camera()
+        else:
+            from kivy.clock import Clock  # deferred: Kivy is configured by the app before this runs
+
+            Clock.schedule_once(lambda _dt: self._stop_camera(), 0)  # Kivy's clock takes events from any thread
+
+    def _stop_camera(self) -> None:
         self._camera.unbind(on_texture=self._on_texture)
         self._camera.stop()
 

@@ -276,6 +276,8 @@ class ProjectorScreen(_PlayerScreen):
     def on_leave(self, *args):
         if self.projector_mode:
             self.leave_projector_mode()
+        App.get_running_app().release_rig_camera()  # the Kivy camera is on only while the stage shows
+        App.get_running_app().close_projector_window()
         return super().on_leave(*args)
 
 
@@ -290,6 +292,9 @@ class ProjectorScreen(_PlayerScreen):
         self.table = TableView(mode="projector", size_hint=(1, 1), pos_hint={"x": 0, "y": 0})
         root.add_widget(filled(Widget(size_hint=(1, 1)), (0, 0, 0, 1)))
         self.use_stage = app.stage_available()
+        if self.use_stage:  # a Kivy camera choice: opened here, on the main thread, for the stage's live rig
+            app.open_rig_camera()
+            app.open_projector_window()  # a second display: the light in its own window there
         # with the 3-D stage the 2-D table is kept out of the widget tree: redrawing it
         # 30 times a second under the stage image would cost the render thread its CPU
         self.table_holder = FloatLayout(size_hint=(1, 1), pos_hint={"x": 0, "y": 0})
@@ -361,6 +366,8 @@ class ProjectorScreen(_PlayerScreen):
         else:
             self.stage_image.texture = texture
         self.stage_image.opacity = 1
+        if frame.projector is not None:  # the light on the projector's own display, when it has one
+            app.feed_projector_window(frame.projector)
         rig = app.t("rig_live") if frame.live else app.t("rig_preview")
         self.state_label.text = f"{rig} · {app.t('track_' + frame.state)}"
         self.state_label.color = self.STATE_COLOURS.get(frame.state, (0.6, 0.6, 0.6, 1))
@@ -369,8 +376,9 @@ class ProjectorScreen(_PlayerScreen):
     def _stage_texture(self, frame):
         """The texture to show for ``frame``. A frame that carries a description (the
         Kivy GL path) has its light drawn here; when the stage wants the light back (the
-        synthetic rig films it next frame) it is read back and handed over, and
-        ``frame.projector`` (and ``frame.rgb`` for the projector view) filled in."""
+        synthetic rig films it next frame) or a projector window shows it, it is read back
+        (handed to the stage), and ``frame.projector`` (and ``frame.rgb`` for the projector
+        view) filled in."""
         if frame.projector is not None or frame.description is None:  # drawn already (or nothing to draw)
             if frame.description is not None:
                 self.drawn_by = "pyrender"
@@ -378,9 +386,10 @@ class ProjectorScreen(_PlayerScreen):
         if self.gl is None:  # the projector's light: one sample per pixel (latency; see PROJECTOR_SUPERSAMPLE)
             self.gl = KivyGLRenderer(PROJECTOR_SUPERSAMPLE)
         self.drawn_by = "kivy-gl"
-        if frame.light_sink is not None:
-            light = self.gl.render(frame.description)
-            frame.light_sink(light)
+        if frame.light_sink is not None or App.get_running_app().projector_window is not None:
+            light = self.gl.render(frame.description)  # read back: the rig films it, or the projector window shows it
+            if frame.light_sink is not None:
+                frame.light_sink(light)
             frame.projector = light
             if frame.view == "projector":
                 frame.rgb = light
