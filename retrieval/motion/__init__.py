@@ -12,6 +12,7 @@ from retrieval.motion.body import (
     JointMapError,
     canonical_joint_map,
 )
+from retrieval.motion.topology import TopologyError, topology_joint_map
 from retrieval.motion.formats import (
     MOTION_EXTENSIONS,
     AcclaimSkeleton,
@@ -59,6 +60,8 @@ __all__ = [
     "CANONICAL_PARENTS",
     "JointMapError",
     "canonical_joint_map",
+    "TopologyError",
+    "topology_joint_map",
     "MOTION_EXTENSIONS",
     "load_motion",
     "load_skeleton",
