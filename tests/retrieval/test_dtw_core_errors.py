@@ -109,3 +109,70 @@ def test_numpy_subsequence_keeps_the_kernels_numbers_when_sums_round():
         assert numpy_match == find_subsequence(q, t, table, backend="numba")
     assert numpy_match.as_dict() == {"start": numpy_match.start, "end": numpy_match.end,
                                      "distance": numpy_match.distance, "raw": numpy_match.raw}
+
+
+def test_fast_searcher_refuses_bad_modes_k_and_unbounded_batches():
+    """The fast search's argument checks say what was wrong."""
+    from retrieval.search import FastSearcher
+
+    table = DiffTable.from_ratios(RATIOS)
+    rng = np.random.default_rng(5)
+    lib = [rng.integers(0, table.size, int(rng.integers(3, 12))).astype(np.int32) for _ in range(6)]
+    with pytest.raises(DTWError, match="unknown search mode 'bogus'"):
+        FastSearcher(lib, table, mode="bogus")
+    with pytest.raises(DTWError, match="'runs' mode\\) has no band"):
+        FastSearcher(lib, table, mode="runs", band=2)
+    searcher = FastSearcher(lib, table)
+    assert searcher.table_bytes == table.nbytes
+    with pytest.raises(DTWError, match="k must be >= 1, got 0"):
+        searcher.search(lib[:1], k=0)
+    if HAVE_NUMBA:
+        unbounded = FastSearcher(lib, table, use_bounds=False, backend="numba")
+        with pytest.raises(DTWError, match="use_bounds=False is only supported for serial searches"):
+            unbounded.search(lib[:2], k=1, parallel=True)
+
+
+def test_numpy_plain_path_without_bounds_and_with_inexact_sums_answers_as_brute_force():
+    """The numpy path's plain branch: no bounds at all (every clip's DP runs), and the
+    "runs" mode with a table whose sums may round (the anti-diagonal DP, not row scans)."""
+    from retrieval.dtw import run_length_encode
+    from retrieval.search import FastSearcher
+    from retrieval.search.fast import runs_dtw_numpy
+
+    table = DiffTable.from_ratios(RATIOS)
+    rng = np.random.default_rng(6)
+    lib = [rng.integers(0, table.size, int(rng.integers(3, 12))).astype(np.int32) for _ in range(8)]
+    q = lib[3]
+    got = FastSearcher(lib, table, use_bounds=False, backend="numpy").search([q], k=2)
+    ref = FastSearcher(lib, table, backend="numpy").search([q], k=2)
+    assert np.array_equal(got.indices, ref.indices) and np.array_equal(got.distances, ref.distances)
+    # a table whose costs are not multiples of one unit over these lengths: sums may round
+    rough = DiffTable.from_ratios(RATIOS)
+    rough.F[1] = np.float32(1e-6)  # a tiny cost beside large ones: float64 sums can round
+    long_lib = [np.repeat(s, 400) for s in lib]
+    assert not rle_is_exact(rough.F, 2 * max(len(s) for s in long_lib))
+    res = FastSearcher(long_lib, rough, mode="runs", backend="numpy").search([long_lib[3]], k=1)
+    av, al = run_length_encode(long_lib[3])
+    raws = []
+    for c in long_lib:
+        bv, bl = run_length_encode(c)
+        raws.append(runs_dtw_numpy(rough.lookup(av[:, None], bv[None, :]), al, bl) / (len(long_lib[3]) + len(c)))
+    assert res.distances[0, 0] == min(raws)
+
+
+def test_run_length_and_exactness_edge_cases():
+    from retrieval.dtw import run_length_encode
+
+    vals, lens = run_length_encode(np.zeros(0, np.int32))
+    assert vals.size == 0 and lens.size == 0 and vals.dtype == np.int32 and lens.dtype == np.int64
+    assert rle_is_exact(np.zeros(5, np.float32), 10**9)  # all-zero costs: every sum is exact
+
+
+def test_lb_kim_counts_one_corner_when_both_sequences_are_one_frame():
+    from retrieval.dtw import lb_kim
+
+    table = DiffTable.from_ratios(RATIOS)
+    a, b = np.array([1], np.int32), np.array([7], np.int32)
+    assert lb_kim(a, b, table) == pytest.approx(float(table.lookup(1, 7)) / 2)
+    a2, b2 = np.array([1, 2], np.int32), np.array([7, 3], np.int32)
+    assert lb_kim(a2, b2, table) == pytest.approx((float(table.lookup(1, 7)) + float(table.lookup(2, 3))) / 4)
