@@ -18,8 +18,10 @@
 #         COVERAGE_SKIP_KERNELS=1 bash scripts/coverage.sh ...   # without the JIT-off run
 #         COVERAGE_DIR=DIR bash scripts/coverage.sh ...           # write DIR/ instead of coverage/
 #
-# Tests that start the app in a child process (the Kivy UI driver, the monkey, the kill
-# harness) are not measured inside the child: only the test process is traced.
+# Child Python processes the tests start (the Kivy UI driver, the tablet profile, the
+# monkey, the kill harness, strace's workload) are measured too: coverage.py's
+# `patch = subprocess` starts coverage in every Python child and `patch = _exit` saves its
+# data when a child leaves through os._exit. A child killed by SIGKILL saves nothing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=.venv/bin/python
@@ -31,7 +33,19 @@ OUT="${COVERAGE_DIR:-coverage}"  # where the data, summary.json and html/ go
 mkdir -p "$OUT"
 rm -f "$OUT"/.coverage "$OUT"/.coverage.*
 export COVERAGE_FILE="$OUT/.coverage"
-RUN=("$PY" -m coverage run --branch --parallel-mode --source=app,retrieval,ar)
+RC="$OUT/coveragerc"
+cat > "$RC" <<RC_EOF
+[run]
+branch = True
+parallel = True
+source = app, retrieval, ar
+data_file = $PWD/$OUT/.coverage
+patch =
+    subprocess
+    _exit
+RC_EOF
+case "$OUT" in /*) sed -i "s|^data_file = .*|data_file = $OUT/.coverage|" "$RC";; esac
+RUN=("$PY" -m coverage run --rcfile="$RC")
 
 # The kernels' own tests (DTW kernels, run-length DTW, bounds, subsequence, fast search,
 # quantiser and tables).
@@ -46,9 +60,9 @@ if [ "${COVERAGE_SKIP_KERNELS:-0}" != 1 ]; then
   echo "== the kernels' tests with NUMBA_DISABLE_JIT=1"
   NUMBA_DISABLE_JIT=1 "${RUN[@]}" -m pytest -q -p no:cacheprovider "${KERNEL_TESTS[@]}" || status=$?
 fi
-"$PY" -m coverage combine -q
-"$PY" -m coverage json -q -o "$OUT/coverage.json"
-"$PY" -m coverage html -q -d "$OUT/html"
+"$PY" -m coverage combine -q --rcfile="$RC"
+"$PY" -m coverage json -q --rcfile="$RC" -o "$OUT/coverage.json"
+"$PY" -m coverage html -q --rcfile="$RC" -d "$OUT/html"
 
 TESTS_RUN="${TESTS[*]}" KERNELS_RUN="$([ "${COVERAGE_SKIP_KERNELS:-0}" != 1 ] && echo "${KERNEL_TESTS[*]}")" \
 "$PY" - "$OUT" <<'EOF'

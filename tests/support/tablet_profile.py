@@ -31,8 +31,10 @@ BLOCKED = ("numba", "llvmlite", "pyrender", "OpenGL", "trimesh", "matplotlib", "
 RECIPE_MODULES = {"kivy": ("kivy", "filetype", "certifi", "chardet", "idna", "requests", "urllib3"), "numpy": ("numpy",), "scipy": ("scipy",), "opencv": ("cv2",),
                   "sqlite3": ("sqlite3", "_sqlite3"), "pyjnius": ("jnius",)}
 TABLET_MODULES = tuple(m for mods in RECIPE_MODULES.values() for m in mods)
-#: the simulated touches (kivy.tests.common) import pytest: allowed, never counted as the app's
-HARNESS_MODULES = ("pytest", "_pytest", "pluggy", "iniconfig", "py", "pygments", "packaging", "tomli", "exceptiongroup")
+#: the simulated touches (kivy.tests.common) import pytest, and scripts/coverage.sh starts
+#: coverage.py in every child process: allowed, never counted as the app's
+HARNESS_MODULES = ("pytest", "_pytest", "pluggy", "iniconfig", "py", "pygments", "packaging", "tomli", "exceptiongroup",
+                   "coverage", "$coverage")  # "$coverage": a name coverage.py's debug output puts in sys.modules
 #: StoryBeam and the test support modules
 OWN_MODULES = ("app", "ar", "retrieval", "main", "tests", "ui_driver", "tablet_scenarios", "narration_scenarios",
                "tablet_profile")
@@ -64,7 +66,8 @@ def main() -> None:
     blocker = Blocker()
     sys.meta_path.insert(0, blocker)
     already = [m for m in sys.modules if m.split(".")[0] in BLOCKED
-               or (is_third_party(m.split(".")[0]) and not m.startswith("__editable__"))]
+               or (is_third_party(m.split(".")[0]) and not m.startswith("__editable__")
+                   and m.split(".")[0] not in HARNESS_MODULES)]
     if already:
         raise SystemExit(f"tablet profile: {already} were imported before the blocker")
     for key, value in (("KIVY_WINDOW", "sdl2"), ("KIVY_TEXT", "sdl2"), ("KIVY_IMAGE", "sdl2,tex"),
