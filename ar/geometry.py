@@ -70,6 +70,19 @@ def look_at(eye: np.ndarray, target: np.ndarray, up_hint: np.ndarray) -> np.ndar
     return invert(make_transform(R_world_from_cam, eye))
 
 
+def scale_intrinsics(K: np.ndarray, sx: float, sy: float) -> np.ndarray:
+    """Camera matrix ``K`` for the same lens at ``sx`` x ``sy`` the resolution. Focal
+    lengths scale; the principal point scales about pixel corners (OpenCV puts pixel
+    centres at integers, so ``c' = (c + 0.5)·s - 0.5``): the image covers the same field
+    of view. A new array."""
+    K = np.array(K, copy=True)
+    K[0, 0] *= sx
+    K[0, 2] = (K[0, 2] + 0.5) * sx - 0.5
+    K[1, 1] *= sy
+    K[1, 2] = (K[1, 2] + 0.5) * sy - 0.5
+    return K
+
+
 def project_points(points: np.ndarray, T_cam_from_world: np.ndarray, K: np.ndarray,
                    dist: np.ndarray | None = None) -> np.ndarray:
     """Project (N,3) world points to (N,2) pixels through a pose and intrinsics."""

@@ -26,7 +26,7 @@ import numpy as np
 
 from ar.boards import Board
 from ar.calibration import CameraCalibration, ProjectorCalibration, place_pattern, rig_pose_for_step
-from ar.geometry import invert, look_at, make_transform, project_points
+from ar.geometry import invert, look_at, make_transform, project_points, scale_intrinsics
 
 
 @dataclass
@@ -44,12 +44,7 @@ class PinholeModel:
 
     def scaled(self, width: int, height: int) -> "PinholeModel":
         """The same lens at another resolution (intrinsics scaled about pixel corners; distortion unchanged)."""
-        sx, sy = width / self.width, height / self.height
-        K = self.K.copy()
-        K[0, 0] *= sx
-        K[0, 2] = (K[0, 2] + 0.5) * sx - 0.5
-        K[1, 1] *= sy
-        K[1, 2] = (K[1, 2] + 0.5) * sy - 0.5
+        K = scale_intrinsics(self.K, width / self.width, height / self.height)
         return PinholeModel(K, self.dist.copy(), int(width), int(height))
 
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ar.boards import Board
-from ar.geometry import invert, look_at, make_transform
+from ar.geometry import invert, look_at, make_transform, scale_intrinsics
 from ar.scene.mesh import MeshData
 from ar.synthetic import PinholeModel
 
@@ -67,14 +67,8 @@ def projector_from_scene(T_cam_from_board: np.ndarray, T_proj_from_cam: np.ndarr
 
 
 def scaled_model(model: PinholeModel, width: int, height: int) -> PinholeModel:
-    """The same lens at another resolution (intrinsics scaled; distortion unchanged)."""
-    sx, sy = width / model.width, height / model.height
-    K = model.K.copy()
-    K[0, 0] *= sx
-    K[0, 2] = (K[0, 2] + 0.5) * sx - 0.5
-    K[1, 1] *= sy
-    K[1, 2] = (K[1, 2] + 0.5) * sy - 0.5
-    return PinholeModel(K, model.dist.copy(), int(width), int(height))
+    """The same lens at another resolution (:meth:`ar.synthetic.PinholeModel.scaled`)."""
+    return model.scaled(width, height)
 
 
 @dataclass
@@ -113,12 +107,7 @@ class View:
     def scaled(self, width: int, height: int) -> "View":
         """The same view at another resolution (intrinsics scaled about pixel edges, as
         :func:`scaled_model` does: the image covers the same field of view)."""
-        sx, sy = width / self.width, height / self.height
-        K = self.K.copy()
-        K[0, 0] *= sx
-        K[0, 2] = (K[0, 2] + 0.5) * sx - 0.5
-        K[1, 1] *= sy
-        K[1, 2] = (K[1, 2] + 0.5) * sy - 0.5
+        K = scale_intrinsics(self.K, width / self.width, height / self.height)
         return View(int(width), int(height), K, self.T_view_from_scene.copy(), self.znear, self.zfar)
 
     @property
