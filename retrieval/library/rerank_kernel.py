@@ -1,22 +1,12 @@
 """Early-abandoning exact DTW on float features, for re-ranking a shortlist
 (:mod:`retrieval.library.storybeam_search`).
 
-Two forms of the same distance:
-
-* :func:`dtw_features_abandon` — bit for bit :func:`retrieval.dtw.dtw_features`'s
-  recurrence (each cell's Euclidean cost summed dimension by dimension), with early
-  abandoning;
-* :func:`dtw_features_gemm` — the re-ranking's fast form: the whole cost matrix at once
-  from ``‖x‖² + ‖y‖² − 2 x·yᵀ`` (one matrix product, BLAS), then the same dynamic
-  programme with early abandoning. It equals :func:`~retrieval.dtw.dtw_features` up to
-  floating-point rounding of that expansion: each cell's squared cost is off by at most
-  a few ulps of ``‖x_i‖² + ‖y_j‖²`` (on the shared data the distances agree to 1e-9
-  relative; the tests bound it), and a cell whose expanded square is below
-  ``1e-12 · (‖x_i‖² + ‖y_j‖²)`` — equal frames, up to rounding — costs exactly 0, so a
-  clip's distance to itself is exactly 0. About 2.5× fewer seconds per cell than the
-  per-cell loop on 18-D features with one BLAS thread (150 × 150 frames: 0.14 against
-  0.34 ms), but OpenBLAS's default threading makes it far slower on a busy machine, so
-  the search uses :func:`dtw_features_abandon`; kept for a build with one BLAS thread.
+:func:`dtw_features_abandon` is bit for bit :func:`retrieval.dtw.dtw_features`'s
+recurrence (each cell's Euclidean cost summed dimension by dimension), with early
+abandoning. (A matrix-product form of the cost matrix, ``‖x‖² + ‖y‖² − 2 x·yᵀ``, was
+measured and dropped: with one BLAS thread it was no faster on these clips, 0.132 against
+0.124 s for 1 230 CMU pairs, and with OpenBLAS's default threads far slower on a busy
+machine; docs/results.md.)
 
 Without a band the compiled path computes each row's costs first, with the frame
 index innermost (the loop runs on vectors; each cell still sums its squares dimension
@@ -135,77 +125,6 @@ if HAVE_NUMBA:
                 return np.inf
             prev, cur = cur, prev
         return prev[ny - 1]
-
-
-if HAVE_NUMBA:
-
-    @numba.njit(cache=True, nogil=True, fastmath=False)
-    def _nb_dtw_cost_abandon(cost, lo, hi, raw_limit):  # pragma: no cover - compiled
-        nx, ny = cost.shape
-        inf = np.inf
-        prev = np.full(ny, inf)
-        cur = np.full(ny, inf)
-        for i in range(nx):
-            if i >= 2:
-                for j in range(lo[i - 2], hi[i - 2] + 1):
-                    cur[j] = inf
-            rowmin = inf
-            for j in range(lo[i], hi[i] + 1):
-                if i == 0 and j == 0:
-                    best = 0.0
-                else:
-                    best = inf
-                    if i > 0:
-                        best = prev[j]
-                        if j > 0 and prev[j - 1] < best:
-                            best = prev[j - 1]
-                    if j > 0 and cur[j - 1] < best:
-                        best = cur[j - 1]
-                v = cost[i, j] + best
-                cur[j] = v
-                if v < rowmin:
-                    rowmin = v
-            if rowmin > raw_limit:
-                return inf
-            prev, cur = cur, prev
-        return prev[ny - 1]
-
-
-#: Relative size under which an expanded squared cost counts as exactly 0 (equal frames).
-ZERO_RELATIVE = 1e-12
-
-
-def cost_matrix(x: np.ndarray, y: np.ndarray, y_sq: np.ndarray | None = None) -> np.ndarray:
-    """(len(x), len(y)) Euclidean frame costs from ``‖x‖² + ‖y‖² − 2 x·yᵀ`` (see the
-    module docstring); ``y_sq`` = the rows' squared norms of ``y`` when precomputed."""
-    x_sq = np.einsum("ij,ij->i", x, x)
-    if y_sq is None:
-        y_sq = np.einsum("ij,ij->i", y, y)
-    norms = x_sq[:, None] + y_sq[None, :]
-    d2 = norms - 2.0 * (x @ y.T)
-    d2[d2 <= ZERO_RELATIVE * norms] = 0.0
-    return np.sqrt(d2, out=d2)
-
-
-def dtw_features_gemm(x: np.ndarray, y: np.ndarray, limit: float = np.inf, band: int | None = None,
-                      backend: str = "auto", y_sq: np.ndarray | None = None) -> float:
-    """:func:`dtw_features_abandon` with the cost matrix from one matrix product (equal
-    up to rounding, see the module docstring); ``inf`` once it must exceed ``limit``."""
-    xf = np.ascontiguousarray(x, dtype=np.float64)
-    yf = np.ascontiguousarray(y, dtype=np.float64)
-    if xf.ndim != 2 or yf.ndim != 2 or xf.shape[1] != yf.shape[1] or not len(xf) or not len(yf):
-        return dtw_features(xf, yf, band, backend)  # raises the DTWError naming the problem
-    n = len(xf) + len(yf)
-    cost = cost_matrix(xf, yf, y_sq)
-    lo, hi = band_limits(len(xf), len(yf), band)
-    raw_limit = limit * n * (1 + _SLACK) if np.isfinite(limit) else np.inf
-    if resolve_backend(backend) == "numba":
-        raw = _nb_dtw_cost_abandon(cost, lo, hi, raw_limit)
-    else:
-        raw = dtw_cost_numpy(cost, lo, hi)
-        if raw > raw_limit:
-            return np.inf
-    return float(raw) / n
 
 
 def sequential_cost_matrix(x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -17,10 +17,9 @@ turning rate, :mod:`retrieval.features.storybeam_set`):
    order). A candidate is abandoned as soon as its partial DTW exceeds the
    ``k``-th best so far, which changes no answer
    (:func:`~retrieval.library.rerank_kernel.dtw_features_abandon`: bit for bit the
-   baseline's kernel otherwise). The matrix-product form
-   (:func:`~retrieval.library.rerank_kernel.dtw_features_gemm`, 2.5× faster per cell with
-   one BLAS thread) is not used: with OpenBLAS's default threads on a busy 2-core machine
-   a bandai2 eval run's search took 26 s with it against about 1 s without.
+   baseline's kernel otherwise). A matrix-product form of the cost matrix was measured
+   and dropped (no faster with one BLAS thread; far slower with OpenBLAS's default
+   threads on a busy machine; docs/results.md).
 
 What it guarantees: the answer is exact with respect to what is ranked — the ``k``
 returned clips are the ``k`` nearest *by exact float DTW among the shortlist*, and their

@@ -20,7 +20,6 @@ from retrieval.library import (
     StoryBeamSearcher,
     clip_from_motion,
     dtw_features_abandon,
-    dtw_features_gemm,
 )
 from retrieval.library.storybeam_search import centre
 from retrieval.motion import Joint, Motion, Skeleton, axis_rotation, load_motion, resample, save_bvh
@@ -202,19 +201,6 @@ def test_shortlist_mode_runs_by_default_and_exact_on_request():
         for s in (runs, exact):
             h = s.search(q, k=1)[0]
             assert h.distance == dtw_features(q, lib[4 + h.index])
-
-
-@pytest.mark.parametrize("backend", ["auto", "numpy"])
-def test_gemm_kernel_is_dtw_up_to_rounding_and_exactly_zero_on_itself(backend):
-    rng = np.random.default_rng(2)
-    for t in range(40):
-        x = rng.normal(size=(int(rng.integers(1, 40)), 18)) * rng.uniform(0.1, 10)
-        y = rng.normal(size=(int(rng.integers(1, 40)), 18))
-        band = None if t % 2 else int(rng.integers(0, 4))
-        d = dtw_features(x, y, band)
-        assert dtw_features_gemm(x, y, np.inf, band, backend) == pytest.approx(d, rel=1e-9)
-        assert dtw_features_gemm(x, x, np.inf, band, backend) == 0.0
-        assert dtw_features_gemm(x, y, 0.5 * d, band, backend) in (np.inf, pytest.approx(d, rel=1e-9))
 
 
 @pytest.mark.parametrize("shortlist", [1, 3, 8])
