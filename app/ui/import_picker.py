@@ -15,13 +15,11 @@ from pathlib import Path
 from kivy.app import App
 from kivy.metrics import dp
 from kivy.uix.boxlayout import BoxLayout
-from kivy.uix.gridlayout import GridLayout
 from kivy.uix.label import Label
 from kivy.uix.modalview import ModalView
-from kivy.uix.scrollview import ScrollView
 
 from app.story import StorageError
-from app.ui.widgets import IconButton, big_label, filled
+from app.ui.widgets import IconButton, big_label, file_tiles, filled
 
 MAX_LISTED = 60  # a downloads folder can be big; the newest packages are listed first
 
@@ -76,18 +74,9 @@ class ImportPicker(ModalView):
         packages = find_packages(folders)
         box = filled(BoxLayout(orientation="vertical", padding=dp(16), spacing=dp(10)), (0.95, 0.97, 1, 1))
         box.add_widget(big_label(t("import_pick"), 22))
-        grid = GridLayout(cols=3, spacing=dp(10), size_hint_y=None, row_default_height=dp(120),
-                          row_force_default=True)
-        grid.bind(minimum_height=grid.setter("height"))
-        self.tiles = {}
-        for path in packages:
-            tile = IconButton("add", path.stem, on_press=lambda p=path: self.pick(p), font_size=dp(15))
-            self.tiles[str(path)] = tile
-            grid.add_widget(tile)
-        if not packages:
-            grid.add_widget(big_label(t("import_none", where="\n".join(str(f) for f in folders)), 16))
-        scroll = ScrollView(do_scroll_x=False)
-        scroll.add_widget(grid)
+        scroll, self.tiles = file_tiles(packages, lambda p: p.stem, self.pick,
+                                        t("import_none", where="\n".join(str(f) for f in folders)),
+                                        row_dp=120, font_dp=15, empty_dp=16)
         box.add_widget(scroll)
         self.status = Label(text=self.message, color=(0.1, 0.2, 0.1, 1), font_size=dp(15), size_hint_y=None,
                             height=dp(60), halign="center", valign="middle")

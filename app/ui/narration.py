@@ -29,16 +29,14 @@ from kivy.clock import Clock
 from kivy.core.audio import SoundLoader
 from kivy.metrics import dp
 from kivy.uix.boxlayout import BoxLayout
-from kivy.uix.gridlayout import GridLayout
 from kivy.uix.label import Label
 from kivy.uix.modalview import ModalView
-from kivy.uix.scrollview import ScrollView
 from kivy.uix.slider import Slider
 
 from app.services.recording import ChunkRecorder, discard_stale, find_recorder
 from app.story import Audio, Scene, encode_wav, read_audio, store_narration, trim
 from app.ui.import_picker import package_folders
-from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
+from app.ui.widgets import BUTTON_DP, IconButton, big_label, file_tiles, filled
 from retrieval.errors import StoryBeamError
 
 #: Profile setting: the teacher's switch for recording (``on`` unless set to ``off``).
@@ -253,18 +251,8 @@ class NarrationPanel(ModalView):
         files = find_audio_files(folders)
         box = BoxLayout(orientation="vertical", spacing=dp(6))
         box.add_widget(big_label(t("audio_pick"), 16))
-        grid = GridLayout(cols=3, spacing=dp(10), size_hint_y=None, row_default_height=dp(110),
-                          row_force_default=True)
-        grid.bind(minimum_height=grid.setter("height"))
-        self.file_tiles = {}
-        for path in files:
-            tile = IconButton("add", path.name, on_press=lambda p=path: self.pick_file(p), font_size=dp(14))
-            self.file_tiles[str(path)] = tile
-            grid.add_widget(tile)
-        if not files:
-            grid.add_widget(big_label(t("audio_none", where="\n".join(str(f) for f in folders)), 14))
-        scroll = ScrollView(do_scroll_x=False)
-        scroll.add_widget(grid)
+        scroll, self.file_tiles = file_tiles(files, lambda p: p.name, self.pick_file,
+                                             t("audio_none", where="\n".join(str(f) for f in folders)))
         box.add_widget(scroll)
         return box
 

@@ -9,7 +9,9 @@ from kivy.metrics import dp
 from kivy.properties import BooleanProperty, ListProperty, StringProperty
 from kivy.uix.behaviors import ButtonBehavior
 from kivy.uix.boxlayout import BoxLayout
+from kivy.uix.gridlayout import GridLayout
 from kivy.uix.label import Label
+from kivy.uix.scrollview import ScrollView
 from kivy.uix.widget import Widget
 
 from app.ui.art import draw_icon
@@ -97,3 +99,23 @@ def filled(widget: Widget, rgba: tuple[float, float, float, float]) -> Widget:
         rect = Rectangle(pos=widget.pos, size=widget.size)
     widget.bind(pos=lambda w, p: setattr(rect, "pos", p), size=lambda w, s: setattr(rect, "size", s))
     return widget
+
+
+def file_tiles(paths, name: Callable, on_pick: Callable, empty_text: str, row_dp: float = 110,
+               font_dp: float = 14, empty_dp: float = 14) -> tuple[ScrollView, dict]:
+    """A scrolling grid of big tiles, one per file in ``paths`` (labelled ``name(path)``;
+    a tap calls ``on_pick(path)``), or ``empty_text`` when there is none. Returns the
+    scroll view and the tiles by ``str(path)`` (what the touch tests tap)."""
+    grid = GridLayout(cols=3, spacing=dp(10), size_hint_y=None, row_default_height=dp(row_dp),
+                      row_force_default=True)
+    grid.bind(minimum_height=grid.setter("height"))
+    tiles = {}
+    for path in paths:
+        tile = IconButton("add", name(path), on_press=lambda p=path: on_pick(p), font_size=dp(font_dp))
+        tiles[str(path)] = tile
+        grid.add_widget(tile)
+    if not paths:
+        grid.add_widget(big_label(empty_text, empty_dp))
+    scroll = ScrollView(do_scroll_x=False)
+    scroll.add_widget(grid)
+    return scroll, tiles
