@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from ar.scene.characters import (
     CHARACTER_NAMES,
+    PERFORMER_NAMES,
     DEFAULT_HEIGHT_M,
     Character,
     CharacterError,
@@ -46,7 +47,7 @@ __all__ = [
     # mesh
     "MeshData", "concatenate", "ellipsoid", "sphere", "capsule", "box", "ribbon",
     # characters
-    "DEFAULT_HEIGHT_M", "CHARACTER_NAMES", "CharacterError", "Part", "Character", "Palette", "Design",
+    "DEFAULT_HEIGHT_M", "CHARACTER_NAMES", "PERFORMER_NAMES", "CharacterError", "Part", "Character", "Palette", "Design",
     "build_character", "rest_motion",
     # description
     "CV_TO_GL", "board_from_scene", "scene_to_board_points", "board_to_scene_points", "projector_from_scene",

@@ -154,9 +154,21 @@ _DESIGNS: dict[str, Design] = {
                 feet=(255, 220, 0), accent=(40, 70, 220)),
         limb_radius=0.035, torso_radii=(0.11, 0.14, 0.08), head_radius=0.13, extras="hair,trousers",
     ),
+    # Not a story character: a human-proportioned performer (adult bone lengths, a head
+    # one eighth of the height, skin-coloured limbs, shirt and trousers) for rendering
+    # synthetic "Act it out" performances that a pose estimator trained on people sees.
+    "person": Design(
+        BodyProportions(),
+        Palette(body=(60, 110, 190), limbs=(224, 172, 140), head=(224, 172, 140), hands=(224, 172, 140),
+                feet=(40, 40, 45), accent=(50, 50, 70), eye=(250, 250, 250), pupil=(40, 30, 25)),
+        limb_radius=0.026, torso_radii=(0.095, 0.16, 0.06), head_radius=0.062, extras="hair,trousers,nose",
+    ),
 }
 
-CHARACTER_NAMES: tuple[str, ...] = tuple(_DESIGNS)
+#: The story characters a child picks from (each has its assets under assets/characters/).
+CHARACTER_NAMES: tuple[str, ...] = ("robot", "cat", "kid")
+#: Performers for synthetic camera tests; :func:`build_character` builds these too.
+PERFORMER_NAMES: tuple[str, ...] = ("person",)
 
 
 def build_character(name: str = "robot", height_m: float = DEFAULT_HEIGHT_M) -> Character:
@@ -166,7 +178,7 @@ def build_character(name: str = "robot", height_m: float = DEFAULT_HEIGHT_M) -> 
     may stick out a little above it).
     """
     if name not in _DESIGNS:
-        raise CharacterError(f"unknown character {name!r}; choose one of {', '.join(CHARACTER_NAMES)}")
+        raise CharacterError(f"unknown character {name!r}; choose one of {', '.join(CHARACTER_NAMES + PERFORMER_NAMES)}")
     if not 0.01 <= height_m <= 2.0:
         raise CharacterError(f"character height {height_m} m is outside 0.01-2 m")
     d = _DESIGNS[name]
@@ -224,14 +236,16 @@ def build_character(name: str = "robot", height_m: float = DEFAULT_HEIGHT_M) -> 
             add(f"ear_{side}", "head", ellipsoid(c, (0.3 * hr, 0.42 * hr, 0.18 * hr)), pal.head)
             add(f"ear_inner_{side}", "head", ellipsoid(c + [0, -0.02 * hr, 0.08 * hr], (0.18 * hr, 0.28 * hr, 0.13 * hr)), pal.accent)
         add("nose", "head", sphere(hc + np.array([0, -0.2 * hr, 0.98 * hr]), 0.14 * hr), pal.accent)
+    elif "nose" in d.extras:
+        add("nose", "head", sphere(hc + np.array([0, -0.15 * hr, 0.95 * hr]), 0.16 * hr), pal.head)
     if "tail" in d.extras:
         add("tail", "hips", capsule(np.array([0, 0, -0.8 * tz]), np.array([0, 0.25 * h, -0.25 * h]), r * 0.9), pal.body)
     if "belly" in d.extras:
         add("belly", "spine", ellipsoid((0, 0, 0.55 * tz), (0.7 * tx, 0.7 * ty, 0.5 * tz)), pal.hands)
     if "hair" in d.extras:
-        add("hair", "head", ellipsoid(hc + np.array([0, 0.25 * hr, -0.12 * hr]), (1.06 * hr, 0.85 * hr, 1.0 * hr)), (240, 120, 30))  # ginger: dark hair would not show in projected light
+        add("hair", "head", ellipsoid(hc + np.array([0, 0.25 * hr, -0.12 * hr]), (1.06 * hr, 0.85 * hr, 1.0 * hr)), (60, 35, 20) if name == "person" else (240, 120, 30))  # kid: ginger: dark hair would not show in projected light
     return Character(name, sk, parts, height_m)
 
 
 __all__ = ["CM", "DEFAULT_HEIGHT_M", "Colour", "CharacterError", "Part", "Character", "rest_motion",
-           "Palette", "Design", "CHARACTER_NAMES", "build_character"]
+           "Palette", "Design", "CHARACTER_NAMES", "PERFORMER_NAMES", "build_character"]
