@@ -19,7 +19,7 @@ from kivy.uix.label import Label
 from kivy.uix.modalview import ModalView
 
 from app.story import StorageError
-from app.ui.widgets import IconButton, big_label, file_tiles, filled
+from app.ui.widgets import IconButton, big_label, file_tiles, filled, newest_files
 
 MAX_LISTED = 60  # a downloads folder can be big; the newest packages are listed first
 
@@ -41,18 +41,7 @@ def package_folders(db_path: Path) -> list[Path]:
 
 def find_packages(folders: list[Path]) -> list[Path]:
     """``.zip`` files in ``folders`` (not recursive), newest first."""
-    found = []
-    for folder in folders:
-        try:
-            found += [p for p in folder.glob("*.zip") if p.is_file()]
-        except OSError:
-            continue
-    def mtime(p: Path) -> float:
-        try:
-            return p.stat().st_mtime
-        except OSError:
-            return 0.0
-    return sorted(found, key=mtime, reverse=True)[:MAX_LISTED]
+    return newest_files(folders, (".zip",), MAX_LISTED)
 
 
 class ImportPicker(ModalView):

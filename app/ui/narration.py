@@ -36,7 +36,7 @@ from kivy.uix.slider import Slider
 from app.services.recording import ChunkRecorder, discard_stale, find_recorder
 from app.story import Audio, Scene, encode_wav, read_audio, store_narration, trim
 from app.ui.import_picker import package_folders
-from app.ui.widgets import BUTTON_DP, IconButton, big_label, file_tiles, filled
+from app.ui.widgets import BUTTON_DP, IconButton, big_label, file_tiles, filled, newest_files
 from retrieval.errors import StoryBeamError
 
 #: Profile setting: the teacher's switch for recording (``on`` unless set to ``off``).
@@ -64,19 +64,7 @@ def recording_folder(db_path: str | Path) -> Path:
 
 def find_audio_files(folders: list[Path]) -> list[Path]:
     """WAV and OGG files in ``folders`` (not recursive), newest first."""
-    found: list[Path] = []
-    for folder in folders:
-        try:
-            found += [p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in AUDIO_SUFFIXES]
-        except OSError:
-            continue
-
-    def mtime(p: Path) -> float:
-        try:
-            return p.stat().st_mtime
-        except OSError:
-            return 0.0
-    return sorted(found, key=mtime, reverse=True)[:MAX_LISTED]
+    return newest_files(folders, AUDIO_SUFFIXES, MAX_LISTED)
 
 
 def scene_voice_path(scene: Scene) -> str | None:

@@ -2,7 +2,8 @@
 ``MIN_TOUCH_DP`` on each side (children's fingers; Android's guideline is 48 dp)."""
 from __future__ import annotations
 
-from typing import Callable
+from pathlib import Path
+from typing import Callable, Iterable
 
 from kivy.graphics import Color, Line, Rectangle, RoundedRectangle
 from kivy.metrics import dp
@@ -99,6 +100,25 @@ def filled(widget: Widget, rgba: tuple[float, float, float, float]) -> Widget:
         rect = Rectangle(pos=widget.pos, size=widget.size)
     widget.bind(pos=lambda w, p: setattr(rect, "pos", p), size=lambda w, s: setattr(rect, "size", s))
     return widget
+
+
+def newest_files(folders: Iterable[Path], suffixes: tuple[str, ...], limit: int = 60) -> list[Path]:
+    """Files in ``folders`` (not recursive) whose suffix is one of ``suffixes`` (lower
+    case), newest first, at most ``limit`` (a downloads folder can be big). A folder that
+    cannot be read is skipped; a file that vanishes while listed sorts last."""
+    found: list[Path] = []
+    for folder in folders:
+        try:
+            found += [p for p in Path(folder).iterdir() if p.is_file() and p.suffix.lower() in suffixes]
+        except OSError:
+            continue
+
+    def mtime(p: Path) -> float:
+        try:
+            return p.stat().st_mtime
+        except OSError:
+            return 0.0
+    return sorted(found, key=mtime, reverse=True)[:limit]
 
 
 def file_tiles(paths, name: Callable, on_pick: Callable, empty_text: str, row_dp: float = 110,
