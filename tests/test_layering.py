@@ -80,7 +80,7 @@ RETRIEVAL_ALL = tuple(RETRIEVAL_ALLOWED)
 RETRIEVAL_PRODUCT = (
     ERRORS, "retrieval.durable", "retrieval.motion", "retrieval.features", "retrieval.codes", "retrieval.library", "retrieval.animation",
 )
-AR_ALL = ("ar", "ar.scene", "ar.render", "ar.closed_loop")
+AR_ALL = ("ar", "ar.body", "ar.scene", "ar.render", "ar.closed_loop")
 #: Shared by every part of app/: the checkout's paths, the progress-bar callback.
 APP_BASE = ("app.paths", "app.progress")
 
@@ -89,6 +89,8 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     **RETRIEVAL_ALLOWED,
     # ar core (errors, geometry, boards, pose, filtering, calibration, synthetic): no rendering
     "ar": (ERRORS, "retrieval.durable"),
+    # body pose from camera frames (BlazePose through a TFLite interpreter): on the core only
+    "ar.body": ("ar", ERRORS, "retrieval.durable"),
     # the renderer-agnostic scene (numpy meshes, characters, views): no GL, no trimesh
     "ar.scene": ("ar", ERRORS, "retrieval.motion", "retrieval.animation"),
     # the pyrender/trimesh renderer, on top of the core and the scene
@@ -99,11 +101,12 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "app.paths": (),
     "app.progress": (),
     "app.story": (*APP_BASE, *RETRIEVAL_PRODUCT),
-    "app.services": (*APP_BASE, "app.story", "ar", *RETRIEVAL_PRODUCT),
+    "app.services": (*APP_BASE, "app.story", "ar", "ar.body", *RETRIEVAL_PRODUCT),
     "app.scene": (*APP_BASE, "app.story", *AR_ALL, *RETRIEVAL_PRODUCT),
     # app.ui draws ar.scene descriptions with Kivy GL (app.ui.gl); never ar.render (pyrender)
     "app.ui": (*APP_BASE, "app.story", "app.services", "app.scene", "ar.scene", *RETRIEVAL_PRODUCT,
-               "ar"),  # ar core: the Kivy camera is an ar.camera_sources.CameraSource (issue 13)
+               "ar",  # ar core: the Kivy camera is an ar.camera_sources.CameraSource (issue 13)
+               "ar.body"),  # "Act it out": the body skeleton drawn over the camera preview (issue 18)
     # harnesses: anything of the library, never the UI (bench) or the commands
     "app.bench": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene"),
     "app.stress": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene", "app.ui"),
@@ -116,6 +119,7 @@ _NO_UI = ("kivy", "pyrender", "OpenGL", "trimesh", "cv2")
 FORBIDDEN_THIRD_PARTY: dict[str, tuple[str, ...]] = {
     **{unit: (*_NO_UI, "tqdm", "dtaidistance", "PIL", "imageio", "imageio_ffmpeg") for unit in RETRIEVAL_ALL},
     "ar": ("kivy", "pyrender", "OpenGL", "trimesh", "tqdm", "dtaidistance"),
+    "ar.body": ("kivy", "pyrender", "OpenGL", "trimesh", "tqdm", "dtaidistance"),
     "ar.scene": ("kivy", "pyrender", "OpenGL", "trimesh", "tqdm", "dtaidistance"),
     "ar.render": ("kivy",),
     "ar.closed_loop": ("kivy",),
@@ -129,6 +133,9 @@ FORBIDDEN_THIRD_PARTY: dict[str, tuple[str, ...]] = {
 #: third-party module -> the only modules that may import it.
 ONLY_IMPORTED_BY: dict[str, tuple[str, ...]] = {
     "numba": ("retrieval.dtw.jit",),  # the one place numba is imported (and its cache set)
+    # the TFLite interpreters (desktop / tablet): only the pose models' loader
+    "ai_edge_litert": ("ar.body.models",),
+    "tflite_runtime": ("ar.body.models",),
 }
 
 #: Harness packages, and the units that may import them.
@@ -151,6 +158,7 @@ RUNTIME_FORBIDDEN: dict[str, tuple[tuple[str, ...], tuple[str, ...], tuple[str, 
     ),
     "ar": (("ar",), (), ("kivy", "app")),
     "ar-core": (("ar",), ("ar.render", "ar.closed_loop"), ("kivy", "app", "pyrender", "OpenGL", "trimesh")),
+    "ar.body": (("ar.body",), (), ("kivy", "app", "pyrender", "OpenGL", "trimesh", "ai_edge_litert", "tflite_runtime")),
     "ar.scene": (("ar.scene",), (), ("kivy", "app", "pyrender", "OpenGL", "trimesh")),
     "app.story": (("app.story",), (), ("kivy", "pyrender", "OpenGL", "trimesh", "cv2", "ar")),
     "app.services": (("app.services",), (), ("kivy", "pyrender", "OpenGL", "trimesh")),
@@ -450,7 +458,8 @@ def test_architecture_diagram_is_current():
 #: The one module allowed to choose PyOpenGL's platform (before pyrender loads).
 GL_PLATFORM_OWNER = "ar/render/__init__.py"
 #: The modules allowed to turn ``__file__`` into paths into the checkout.
-PATH_OWNERS = ("app/paths.py", "retrieval/dtw/jit.py")
+#: ar/body/models.py: the vendored pose models' folder (ar may not import app.paths, a higher layer).
+PATH_OWNERS = ("app/paths.py", "retrieval/dtw/jit.py", "ar/body/models.py")
 
 
 def one_place_offences(root: Path = REPO, packages: Iterable[str] = PACKAGES) -> list[str]:

@@ -36,7 +36,8 @@ PACKAGES = ("retrieval", "ar", "app")
 #: Package-level nodes of the architecture, most specific first where they nest. A module
 #: belongs to the longest unit that is a prefix of its name (``retrieval.motion.formats.bvh``
 #: → ``retrieval.motion``; ``ar.pose`` → ``ar``; ``app.cli`` → ``app.cli``). ``ar`` is split
-#: in three because its modules are: the tracking core, the pyrender/trimesh renderers in
+#: by what its modules need: the tracking core, body pose in ``ar.body`` (the core and a
+#: TFLite interpreter), the renderer-agnostic ``ar.scene``, the pyrender/trimesh renderers in
 #: ``ar.render`` (which use the core), and ``ar.closed_loop`` (which uses both).
 UNITS = (
     "retrieval",
@@ -51,6 +52,7 @@ UNITS = (
     "retrieval.experiment",
     "retrieval.animation",
     "ar",
+    "ar.body",
     "ar.scene",
     "ar.render",
     "ar.closed_loop",
