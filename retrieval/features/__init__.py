@@ -1,6 +1,7 @@
 """Per-frame features of a motion: the 17 body-part relational distances the search uses
 (:mod:`~retrieval.features.relational`, feature sets by name) and the weighted pose
-vectors of the Forbes–Fiume baseline (:mod:`~retrieval.features.pose_vectors`)."""
+vectors of the Forbes–Fiume baseline (:mod:`~retrieval.features.pose_vectors`), and the
+frontal set one camera in front of the body sees (:mod:`~retrieval.features.frontal`)."""
 from __future__ import annotations
 
 from retrieval.features.kinetic import BODY_PARTS, kinetic_energy, kinetic_energy_from_positions
@@ -18,6 +19,7 @@ from retrieval.features.relational import (
     heading_rate,
     register_feature_set,
 )
+from retrieval.features.frontal import FRONTAL, FrontalFeatureSet, face_camera, mean_heading, measured_rest
 from retrieval.features.storybeam_set import HEADING_WEIGHT, STORYBEAM, mr17_columns, storybeam_feature_set
 
 __all__ = [
@@ -36,6 +38,11 @@ __all__ = [
     "get_feature_set",
     "available_feature_sets",
     "motion_features",
+    "FRONTAL",
+    "FrontalFeatureSet",
+    "face_camera",
+    "mean_heading",
+    "measured_rest",
     "JOINT_WEIGHTS",
     "pose_frames",
     "BODY_PARTS",

@@ -1,9 +1,10 @@
 """The motion library the product searches: clips from labelled folders, the saved index
 (:class:`MotionIndex`, the one search path), the choice of a clip for a story character,
-the bundled library's builder, search by pose (:class:`PoseSearch`) and the library's
-unsupervised groups (:func:`group`)."""
+the bundled library's builder, search by pose (:class:`PoseSearch`), search by performance
+(:class:`ActSearch`, "Act it out") and the library's unsupervised groups (:func:`group`)."""
 from __future__ import annotations
 
+from retrieval.library.act_search import ActHit, ActSearch
 from retrieval.library.bundle import SELECTION as BUNDLE_SELECTION
 from retrieval.library.bundle import build as build_bundle
 from retrieval.library.clip import Clip, Match
@@ -53,6 +54,8 @@ __all__ = [
     "load_row",
     "load_dataset",
     "MotionIndex",
+    "ActSearch",
+    "ActHit",
     "StoryBeamSearcher",
     "Hit",
     "SHORTLIST",

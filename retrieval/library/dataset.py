@@ -114,6 +114,8 @@ def _cache_key(row: LabelRow, fps: float | None, feature_set: str) -> str:
     fs = get_feature_set(feature_set)
     if fs.needs_fps:  # a set with a rate: its weights and smoothing are part of what is cached
         parts.append(repr(fs.specs) + repr(HEADING_SMOOTH_SECONDS) + fs.normalise + repr(fs.centre))
+    elif fs.normalise != "legs" or type(fs).__name__ != "FeatureSet":  # e.g. the frontal sets: every field
+        parts.append(repr(fs))
     for p in (row.file, row.skeleton):
         if p is not None:
             st = p.stat()

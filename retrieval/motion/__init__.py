@@ -1,5 +1,6 @@
 """The motion model: skeletons, motions, rotations, forward kinematics, the canonical body
-map, and the file formats (:mod:`retrieval.motion.formats`).
+map, the file formats (:mod:`retrieval.motion.formats`), and BlazePose landmarks as
+canonical joints (:mod:`retrieval.motion.landmarks`).
 
 The bottom layer of StoryBeam: it imports nothing else of StoryBeam but
 :mod:`retrieval.errors`.
@@ -33,6 +34,7 @@ from retrieval.motion.kinematics import (
     rest_positions,
     world_from_native,
 )
+from retrieval.motion.landmarks import LandmarkError, landmarks_to_positions
 from retrieval.motion.model import Joint, Motion, Skeleton
 from retrieval.motion.rotations import (
     axis_rotation,
@@ -73,4 +75,6 @@ __all__ = [
     "load_asf",
     "load_amc",
     "AcclaimSkeleton",
+    "LandmarkError",
+    "landmarks_to_positions",
 ]

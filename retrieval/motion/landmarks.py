@@ -1,0 +1,187 @@
+"""BlazePose's 33 landmarks → StoryBeam's canonical joints, for a camera take.
+
+A pose estimator (:mod:`ar.body`, MediaPipe's BlazePose models) gives per frame 33
+*image* landmarks (pixels) and 33 *world* landmarks (metres, MediaPipe's convention:
+origin between the hips, x image-right, y down, z away from the camera). The search
+speaks of the canonical body (:data:`~retrieval.motion.CANONICAL_JOINTS`) in metres with
+Y up, the way the library's clips are. :func:`landmarks_to_positions` converts:
+
+**Coordinates.** X and Y come from the *image* landmarks, scaled to metres: X =
+(u − u₀)·s, Y = −(v − v₀)·s with (u₀, v₀) the clip's median hip midpoint and ``s`` the
+clip's metres per pixel: the median over frames of the world torso length (shoulder
+midpoint to hip midpoint, metres) over its image length (pixels). So the root's height
+comes from the image — world landmarks are hip-centred and cannot show a jump's flight —
+and so does every other vertical and lateral coordinate, which a monocular estimator
+gets right far more often than depth. Z is the world landmarks' depth turned towards
+the camera (Z = −z): kept so that a clip can be turned to its mean heading, then
+dropped by the frontal features (:mod:`retrieval.features.frontal`). The axes are
+StoryBeam's: Y up, the camera on +Z, image-right = +X, so a performer facing the camera
+faces +Z with their left on +X, like a canonical body in its rest pose.
+
+**Joints** (BlazePose index in brackets): shoulders [11/12], elbows [13/14], wrists
+[15/16] as the hands, hips [23/24], knees [25/26], ankles [27/28], foot index [31/32]
+as the toes; the root (``hips``) from the hip midpoint, ``spine`` halfway between the
+hip and shoulder midpoints, ``neck`` from the shoulder midpoint, ``head`` from the ear
+midpoint [7/8].
+
+**Offsets it corrects.** CMU's skeletons (the library) put some joints where no
+landmark is, and BlazePose marks some points elsewhere than CMU's joints. Each joint is
+moved along the trunk direction ``up`` (hip midpoint → shoulder midpoint, per frame) by
+:data:`UP_OFFSETS` leg lengths ``L`` (hip→knee→ankle, the clip's median, measured on the
+landmarks before the correction). Measured on the rest poses of the 15 CMU skeletons of
+the shared data: the root sits 0.107–0.122 L above the hip-joint midpoint (14 Acclaim
+skeletons); Acclaim's head joint is the *start* of the head bone, at the top of the
+neck, 0.11–0.19 L above the shoulder midpoint — below the ears, not above them; the neck
+joint 0.04–0.10 L below the shoulder midpoint. Measured against BlazePose (the median
+over 30 tuning renders of the human-proportioned figure of CMU joint − landmark joint,
+relative to the hip midpoint, in leg lengths): BlazePose's hips sit 0.08 L above the hip
+joints, its shoulders 0.06 L above CMU's, its foot index 0.14 L below CMU's toe joint
+(the ball of the foot); the table of :data:`UP_OFFSETS` is the result (docs/act-it-out.md).
+
+After the correction ``L`` is measured again and returned with the positions: the
+features divide by it. Frames the estimator missed (``valid`` false) are filled by
+linear interpolation of the frames around them (the first and last seen frames are held
+at the ends); a take with no valid frame raises :class:`LandmarkError`.
+
+Pure numpy: the retrieval layer never imports the camera side (:mod:`ar`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from retrieval.errors import StoryBeamError
+from retrieval.motion.body import CANONICAL_JOINTS
+
+#: Number of BlazePose landmarks.
+N_LANDMARKS = 33
+#: BlazePose landmark indices used here.
+NOSE, L_EAR, R_EAR = 0, 7, 8
+L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST = 11, 12, 13, 14, 15, 16
+L_HIP, R_HIP, L_KNEE, R_KNEE, L_ANKLE, R_ANKLE = 23, 24, 25, 26, 27, 28
+L_FOOT_INDEX, R_FOOT_INDEX = 31, 32
+
+#: Canonical joint -> the one BlazePose landmark it is (the joints built from several
+#: landmarks — hips, spine, neck, head — are in :func:`landmarks_to_positions`).
+DIRECT: dict[str, int] = {
+    "left_shoulder": L_SHOULDER, "right_shoulder": R_SHOULDER,
+    "left_elbow": L_ELBOW, "right_elbow": R_ELBOW,
+    "left_hand": L_WRIST, "right_hand": R_WRIST,
+    "left_hip": L_HIP, "right_hip": R_HIP,
+    "left_knee": L_KNEE, "right_knee": R_KNEE,
+    "left_ankle": L_ANKLE, "right_ankle": R_ANKLE,
+    "left_toe": L_FOOT_INDEX, "right_toe": R_FOOT_INDEX,
+}
+#: Offsets along the trunk direction ``up``, in leg lengths, added to each canonical
+#: joint after it is read from the landmarks: where CMU's joint sits relative to what
+#: BlazePose marks (measured, see the module docstring; positive = towards the head).
+UP_OFFSETS: dict[str, float] = {
+    "hips": 0.126 - 0.08,  # root above the hip-joint midpoint, itself below the landmark hips
+    "left_hip": -0.08, "right_hip": -0.08,  # BlazePose's hips sit above the hip joints
+    "left_shoulder": -0.06, "right_shoulder": -0.06,
+    "neck": -0.14,
+    "head": -0.225,  # Acclaim's head joint is the top of the neck, below the ears
+    "left_toe": 0.14, "right_toe": 0.14,  # the ball of the foot, above the toe tip
+}
+
+
+class LandmarkError(StoryBeamError):
+    """Landmarks cannot be turned into joint positions (bad shapes, nothing seen)."""
+
+
+def _check(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    world = np.asarray(world, dtype=np.float64)
+    image_xy = np.asarray(image_xy, dtype=np.float64)
+    valid = np.asarray(valid, dtype=bool)
+    t = valid.shape[0] if valid.ndim == 1 else -1
+    if valid.ndim != 1 or world.shape != (t, N_LANDMARKS, 3) or image_xy.shape != (t, N_LANDMARKS, 2):
+        raise LandmarkError(f"landmarks must be world (T, 33, 3), image (T, 33, 2) and valid (T,); got "
+                            f"{world.shape}, {image_xy.shape} and {valid.shape}")
+    ok = valid & np.all(np.isfinite(world), axis=(1, 2)) & np.all(np.isfinite(image_xy), axis=(1, 2))
+    if not ok.any():
+        raise LandmarkError(f"no frame of the take ({t} frames) has a body: nothing to search with")
+    return world, image_xy, ok
+
+
+def fill_gaps(values: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """(T, ...) values with the rows where ``ok`` is false replaced by linear
+    interpolation between the nearest good rows (held constant before the first and
+    after the last)."""
+    values = np.asarray(values, dtype=np.float64)
+    if ok.all():
+        return values.copy()
+    t = np.arange(len(values))
+    flat = values.reshape(len(values), -1)
+    out = np.empty_like(flat)
+    for c in range(flat.shape[1]):
+        out[:, c] = np.interp(t, t[ok], flat[ok, c])
+    return out.reshape(values.shape)
+
+
+def metres_per_pixel(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray) -> float:
+    """The clip's image scale: median over valid frames of the world torso length
+    (shoulder midpoint to hip midpoint, metres) over its image length (pixels)."""
+    world, image_xy, ok = _check(world, image_xy, valid)
+
+    def torso(a: np.ndarray) -> np.ndarray:
+        return np.linalg.norm((a[:, L_SHOULDER] + a[:, R_SHOULDER]) / 2 - (a[:, L_HIP] + a[:, R_HIP]) / 2, axis=1)
+
+    tw, ti = torso(world[ok]), torso(image_xy[ok])
+    good = ti > 1.0
+    if not good.any():
+        raise LandmarkError("the torso is under a pixel long in every frame: no image scale")
+    return float(np.median(tw[good] / ti[good]))
+
+
+def _leg(joints: dict[str, np.ndarray]) -> float:
+    """Median over frames of both legs' mean hip→knee→ankle length."""
+    legs = [np.linalg.norm(joints[f"{s}_knee"] - joints[f"{s}_hip"], axis=1)
+            + np.linalg.norm(joints[f"{s}_ankle"] - joints[f"{s}_knee"], axis=1) for s in ("left", "right")]
+    size = float(np.median((legs[0] + legs[1]) / 2))
+    if not size > 1e-3:
+        raise LandmarkError(f"the take's leg length is {size:.4f} m: the landmarks are degenerate")
+    return size
+
+
+def landmarks_to_positions(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray,
+                           image_size: tuple[int, int] | None = None,
+                           fps: float | None = None) -> tuple[np.ndarray, dict[str, int], float]:
+    """(T, 18, 3) canonical joint positions (metres, Y up, the camera on +Z), the joint
+    map (canonical name -> column) and the leg length (metres) of a take, from BlazePose
+    world landmarks (T, 33, 3), image landmarks (T, 33, 2, pixels) and the per-frame
+    ``valid`` flags (see the module docstring for the method). ``image_size`` (w, h) and
+    ``fps`` are checked when given (the conversion itself does not depend on them)."""
+    world, image_xy, ok = _check(world, image_xy, valid)
+    if image_size is not None and not (len(image_size) == 2 and min(image_size) > 0):
+        raise LandmarkError(f"image size must be (width, height) in pixels, got {image_size}")
+    if fps is not None and not fps > 0:
+        raise LandmarkError(f"fps must be positive, got {fps}")
+    s = metres_per_pixel(world, image_xy, ok)
+    mid_px = (image_xy[ok, L_HIP] + image_xy[ok, R_HIP]) / 2
+    u0, v0 = np.median(mid_px, axis=0)
+    lm = np.empty(world.shape)
+    lm[..., 0] = (image_xy[..., 0] - u0) * s
+    lm[..., 1] = -(image_xy[..., 1] - v0) * s
+    lm[..., 2] = -world[..., 2]
+    lm = fill_gaps(lm, ok)
+
+    def mid(a: int, b: int) -> np.ndarray:
+        return (lm[:, a] + lm[:, b]) / 2
+
+    hips, shoulders, ears = mid(L_HIP, R_HIP), mid(L_SHOULDER, R_SHOULDER), mid(L_EAR, R_EAR)
+    up = shoulders - hips
+    up /= np.maximum(np.linalg.norm(up, axis=1, keepdims=True), 1e-9)
+    joints = {name: lm[:, i] for name, i in DIRECT.items()}
+    joints["hips"] = hips
+    joints["spine"] = (hips + shoulders) / 2
+    joints["neck"] = shoulders
+    joints["head"] = ears
+    raw_leg = _leg(joints)
+    joints = {n: p + UP_OFFSETS.get(n, 0.0) * raw_leg * up for n, p in joints.items()}
+    leg = _leg(joints)
+    names = list(CANONICAL_JOINTS)
+    pos = np.stack([joints[n] for n in names], axis=1)
+    return pos, {n: i for i, n in enumerate(names)}, leg
+
+
+__all__ = ["N_LANDMARKS", "DIRECT", "UP_OFFSETS", "LandmarkError",
+           "fill_gaps", "metres_per_pixel", "landmarks_to_positions"]

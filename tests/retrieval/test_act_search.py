@@ -1,0 +1,166 @@
+"""Search by performance (:class:`retrieval.library.ActSearch`): a library clip's own
+joints find the clip itself at distance 0, ``exclude`` leaves trials out, a take's
+BlazePose-like landmarks find a clip of the same class, a saved search answers the same
+after loading, the answer equals exact DTW over the whole library when the shortlist
+covers it, and bad input is refused plainly."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from retrieval.dtw import dtw_features
+from retrieval.errors import IndexFormatError, StoryBeamError
+from retrieval.features import leg_length
+from retrieval.library import ActHit, ActSearch, clip_from_motion
+from retrieval.motion import canonical_joint_map, positions
+from retrieval.motion.landmarks import LandmarkError
+from tests.retrieval.test_frontal_landmarks import fake_landmarks
+from tests.support.synthetic_motion import make_motion, make_skeleton
+
+#: Two "classes": a gentle walk-like swing and a big arm-waving, knee-bending one.
+KINDS = {"calm": dict(arm_swing=15.0, knee_bend=10.0), "wild": dict(arm_swing=80.0, knee_bend=60.0, bounce=0.08)}
+
+
+def _motions():
+    sk = make_skeleton()
+    out = []
+    for label, kw in KINDS.items():
+        for k in range(4):
+            m = make_motion(sk, frames=50 + 7 * k, period=0.8 + 0.15 * k, phase=0.2 * k, heading_deg=40.0 * k, **kw)
+            m.name = f"{label}{k}"
+            out.append((m, label, f"s{k % 2}"))
+    return out
+
+
+@pytest.fixture(scope="module")
+def library():
+    motions = _motions()
+    clips = []
+    for m, label, subject in motions:
+        c = clip_from_motion(m, m.name, label, 30.0, "frontal", source=f"/lib/{m.name}.bvh")
+        c.subject = subject
+        clips.append(c)
+    return ActSearch.from_clips(clips, dims=4), motions
+
+
+def test_own_joints_find_the_clip_itself(library):
+    search, motions = library
+    m, label, subject = motions[5]
+    jm = canonical_joint_map(m.skeleton)
+    hits = search.search_positions(positions(m), 30.0, k=3, joint_map=jm, body_size=leg_length(m.skeleton, jm))
+    assert isinstance(hits[0], ActHit)
+    assert hits[0].name == m.name and hits[0].distance < 1e-6
+    assert hits[0].label == label and hits[0].subject == subject and hits[0].clip_path == f"/lib/{m.name}.bvh"
+    assert [h.distance for h in hits] == sorted(h.distance for h in hits)
+    assert set(hits[0].as_dict()) == {"name", "label", "subject", "distance", "clip_path", "start_s", "end_s"}
+    assert hits[0].start_s == 0.0 and hits[0].end_s == pytest.approx(m.n_frames / 30.0)  # short clips stay whole
+
+
+def test_exclude_leaves_trials_out(library):
+    search, motions = library
+    m, label, subject = motions[5]
+    jm = canonical_joint_map(m.skeleton)
+    same_subject = [mm.name for mm, _, s in motions if s == subject]
+    hits = search.search_positions(positions(m), 30.0, k=8, exclude=same_subject, joint_map=jm,
+                                   body_size=leg_length(m.skeleton, jm))
+    assert hits and not {h.name for h in hits} & set(same_subject)
+    assert len(hits) == len(motions) - len(same_subject)
+    assert hits[0].label == label  # the nearest other performer's clip is of the same kind
+
+
+def test_equals_exact_dtw_over_the_library(library):
+    search, motions = library
+    m, _, _ = motions[2]
+    jm = canonical_joint_map(m.skeleton)
+    q = search.position_features(positions(m)[5:40], 30.0, jm, leg_length(m.skeleton, jm))
+    q32 = q.astype(np.float32).astype(np.float64)
+    want = sorted((dtw_features(q32, f), t) for f, t in zip(search.index.clip_features, search.index.trials))
+    hits = search.search_features(q, k=len(motions), exclude=[m.name])
+    assert [h.name for h in hits] == [t for _, t in want if t != m.name]
+    np.testing.assert_allclose([h.distance for h in hits], [d for d, t in want if t != m.name], rtol=1e-9)
+
+
+def test_a_filmed_take_finds_its_class(library):
+    search, motions = library
+    sk = make_skeleton(scale=0.8)  # a smaller performer
+    for label, kw in KINDS.items():
+        m = make_motion(sk, frames=70, period=0.9, **kw)
+        pos = positions(m)
+        jm = canonical_joint_map(sk)
+        pos[..., [0, 2]] -= pos[:, [jm["hips"]]][..., [0, 2]]
+        world, image = fake_landmarks(pos, jm)
+        valid = np.ones(len(pos), bool)
+        valid[[3, 4, 30]] = False
+        world[~valid] = np.nan
+        hits = search.search_take(world, image, valid, 30.0, (640, 480), k=2)
+        assert hits[0].label == label, (label, [h.as_dict() for h in hits])
+    with pytest.raises(LandmarkError, match="no frame"):
+        search.search_take(world, image, np.zeros(len(pos), bool), 30.0)
+
+
+def test_other_frame_rates_are_resampled(library):
+    search, motions = library
+    m, _, _ = motions[1]
+    jm = canonical_joint_map(m.skeleton)
+    pos = positions(m)
+    t = np.arange(len(pos)) / 30.0
+    t60 = np.arange(int(t[-1] * 60) + 1) / 60.0
+    pos60 = np.stack([np.interp(t60, t, c) for c in pos.reshape(len(pos), -1).T], 1).reshape(len(t60), *pos.shape[1:])
+    hits = search.search_positions(pos60, 60.0, k=1, joint_map=jm, body_size=leg_length(m.skeleton, jm))
+    assert hits[0].name == m.name
+
+
+def test_save_and_load_answer_the_same(library, tmp_path):
+    search, motions = library
+    m, _, _ = motions[6]
+    jm = canonical_joint_map(m.skeleton)
+    args = (positions(m)[::2], 15.0)
+    kw = dict(k=4, joint_map=jm, body_size=leg_length(m.skeleton, jm), exclude=[m.name])
+    search.save(tmp_path / "act")
+    again = ActSearch.load(tmp_path / "act")
+    assert [h.as_dict() for h in again.search_positions(*args, **kw)] == [h.as_dict() for h in search.search_positions(*args, **kw)]
+    (tmp_path / "act" / "act.json").write_text(json.dumps({"subjects": []}))
+    with pytest.raises(IndexFormatError, match="act.json"):
+        ActSearch.load(tmp_path / "act")
+    (tmp_path / "act" / "act.json").unlink()
+    with pytest.raises(IndexFormatError, match="not found"):
+        ActSearch.load(tmp_path / "act")
+
+
+def test_bad_queries_are_refused(library):
+    search, _ = library
+    with pytest.raises(StoryBeamError, match="positions"):
+        search.search_positions(np.zeros((10, 3)), 30.0)
+    with pytest.raises(StoryBeamError, match="fps"):
+        search.search_positions(np.random.default_rng(0).normal(size=(10, 18, 3)), 0.0)
+    with pytest.raises(StoryBeamError, match="zero leg length"):
+        search.search_positions(np.zeros((10, 18, 3)), 30.0)
+    with pytest.raises(StoryBeamError, match="k must be"):
+        search.search_features(np.zeros((10, 17)), k=0)
+    with pytest.raises(StoryBeamError, match=r"\(frames, 17\)"):
+        search.search_features(np.zeros((10, 16)))
+
+
+def test_long_clips_are_searched_by_take_long_windows():
+    sk = make_skeleton()
+    clips, motions = [], []
+    for k, (label, kw) in enumerate(KINDS.items()):
+        for j in range(2):
+            m = make_motion(sk, frames=300, period=0.9 + 0.2 * j, **kw)  # 10 s: several windows
+            m.name = f"{label}{j}"
+            motions.append(m)
+            clips.append(clip_from_motion(m, m.name, label, 30.0, "frontal"))
+    search = ActSearch.from_clips(clips, dims=4)
+    assert len(search) == 4 and search.clip_names == [m.name for m in motions]
+    assert len(search.index) > 4 * 4  # windows of 3.5 s every 1.75 s
+    m = motions[1]
+    jm = canonical_joint_map(sk)
+    hits = search.search_positions(positions(m)[120:225], 30.0, k=4, joint_map=jm,
+                                   body_size=leg_length(sk, jm))
+    assert [h.name for h in hits][0] == m.name and len({h.name for h in hits}) == len(hits) == 4  # each clip once
+    assert hits[0].end_s - hits[0].start_s == pytest.approx(3.5)
+    hits = search.search_positions(positions(m)[120:225], 30.0, k=4, joint_map=jm, body_size=leg_length(sk, jm),
+                                   exclude=[m.name])
+    assert m.name not in {h.name for h in hits} and len(hits) == 3
