@@ -2,7 +2,7 @@
 
     storybeam app [--lang ja|en] [--db PATH] [--story ID | --demo-story]
                   [--screenshot PATH [--screen editor|home|play|projector|pin] [--size WxH]]
-                  [--preview auto|3d|2d] [--renderer kivy-gl|pyrender]
+                  [--preview auto|3d|2d] [--renderer kivy-gl|pyrender] [--camera SOURCE] [--act-camera SOURCE]
 
 A screenshot also writes ``PATH.json``: ``{"renderer": "kivy-gl" | "pyrender" | "2d",
 "screen": ...}`` -- which renderer drew the frame (play and projector wait, up to
@@ -65,6 +65,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "images (frames/); a recording plays looped at its frame rate in place of the camera. "
                         "Calibration: camera.json + projector.json in the profile folder, else beside the "
                         "recording (default: the teacher's setting, else 0)")
+    p.add_argument("--act-camera", metavar="SOURCE",
+                   help="the camera \"Act it out\" films the child with: the Kivy camera (kivy:1, the "
+                        "tablet's front camera: the default on Android), a device number (default 0 "
+                        "elsewhere), or a video file / folder of images played looped in its place")
     p.add_argument("--preview", choices=("auto", "3d", "2d"), default="auto",
                    help="Play preview and projector screen: 3-D characters (the projector through the "
                         "tracked rig) or the 2-D top-down animation; auto = 3-D, except for a --screenshot "
@@ -108,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
             if not store.has_story(args.story):
                 raise StorageError(f"{db}: no story with id '{args.story}'")
     camera = _camera_choice(args.camera, db)
+    from app.scene.app_renderer import check_camera_choice  # deferred: app start-up only
+    act_camera = check_camera_choice(args.act_camera) if args.act_camera is not None else None  # before any window
     screenshot = Path(args.screenshot) if args.screenshot else None
     demo = args.demo_story or (screenshot is not None and not args.story)
     screen = args.screen or ("editor" if (args.story or demo) else None)
@@ -186,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
         from app.scene.app_renderer import app_renderer_factory  # deferred: the render thread's modules load on its first job
         factory = app_renderer_factory(db.parent, camera=camera, renderer=args.renderer)
     app = _LaunchedApp(db, lang=args.lang, story_id=args.story, demo=demo, start_screen=screen,
-                       renderer_factory=factory)
+                       renderer_factory=factory, act_camera=act_camera)
     app.run()
     if result["error"]:
         raise StoryBeamError(result["error"])

@@ -29,6 +29,23 @@ where they do::
 
 ``search_ms`` is the time from the pose's features to the answer (code search and
 refinement). A pose search needs a labelled folder (a saved index keeps no features).
+
+``--video FILE`` searches by a performance filmed from the front ("Act it out",
+:mod:`app.services.act_it_out`): every frame of the video is run through the pose
+estimator (:class:`ar.body.BodyTracker`), the landmarks are searched in the library's
+frontal features (:class:`retrieval.library.ActSearch`, built from ``--data``: a labelled
+folder), and ``--exclude TRIAL,...`` leaves those trials out of the library (to evaluate a
+take of a library clip)::
+
+  {"query", "data", "mode": "video", "results": [{"rank", "name", "label", "subject",
+   "distance", "clip_path"}], "detect_rate", "pose_ms_median", "search_ms", "frames",
+   "fps", "image_size", "verdict": {"ok", "reason", "seen", "detected", ...}, "clips"}
+
+``detect_rate`` is the share of frames with a body, ``pose_ms_median`` the median time
+of the pose estimator per frame, ``search_ms`` the search alone (after one search that
+loads the kernels); ``verdict`` is what the app would tell the child (at least 80 % of
+the frames must show the whole body; the search is reported either way). No frame is
+stored or written: only the landmarks, in memory.
 """
 from __future__ import annotations
 
@@ -52,6 +69,11 @@ def register(subparsers) -> None:
     p.add_argument("--query", help="motion file (.bvh, or .amc with --skeleton)")
     p.add_argument("--pose", metavar="FILE:FRAME",
                    help="search by the pose at frame FRAME of a motion file (instead of --query)")
+    p.add_argument("--video", metavar="FILE",
+                   help="search by a performance filmed from the front (instead of --query): "
+                        "pose estimation on every frame, then the frontal-feature library")
+    p.add_argument("--exclude", metavar="TRIAL,...", default="",
+                   help="with --video: leave these trials out of the library (evaluation)")
     p.add_argument("--skeleton", help="ASF skeleton for an AMC query")
     p.add_argument("-k", "--top", type=int, default=5, help="how many clips to report (default 5)")
     p.add_argument("--subsequence", action="store_true",
@@ -80,8 +102,15 @@ def run(args) -> int:
         raise StoryBeamError(f"-k/--top must be at least 1, got {args.top}")
     if not data.exists():
         raise StoryBeamError(f"--data {data}: not found")
-    if (args.query is None) == (args.pose is None):
-        raise StoryBeamError("give one of --query FILE or --pose FILE:FRAME")
+    given = [name for name, value in (("--query", args.query), ("--pose", args.pose), ("--video", args.video))
+             if value is not None]
+    if len(given) != 1:
+        raise StoryBeamError("give one of --query FILE or --pose FILE:FRAME or --video FILE"
+                             + (f" (got {' and '.join(given)})" if given else ""))
+    if args.exclude and args.video is None:
+        raise StoryBeamError("--exclude goes with --video")
+    if args.video is not None:
+        return _run_video(args, data)
     if args.pose is not None:
         return _run_pose(args, data, load_motion)
     query_path = Path(args.query)
@@ -172,6 +201,60 @@ def _run_pose(args, data: Path, load_motion) -> int:
         for i, h in enumerate(hits, 1):
             print(f"{i:>4}  {h.trial:<16} {h.label:<10} {h.distance:.5f} {h.frame:>6}")
         print(f"{len(search)} clips, search {report['search_ms']:.2f} ms ({search.index.backend})")
+    if args.json_out == "-":
+        json.dump(report, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    elif args.json_out:
+        write_json_report(args.json_out, report)
+    return 0
+
+
+def _run_video(args, data: Path) -> int:
+    """``--video FILE``: the take's landmarks, its verdict, the frontal search, the report."""
+    from ar.camera_sources import VIDEO_SUFFIXES, VideoFileSource  # deferred: OpenCV, only for a video
+    from app.services.act_it_out import ActItOut, pose_runtime_problem  # deferred: the camera flow, only for a video
+
+    path = Path(args.video)
+    if not path.is_file():
+        raise StoryBeamError(f"--video {path}: not found")
+    if path.suffix.lower() not in VIDEO_SUFFIXES:
+        raise StoryBeamError(f"--video {path}: not a video file (expected one of {', '.join(VIDEO_SUFFIXES)})")
+    if not data.is_dir() or not (data / "labels.csv").is_file():
+        raise StoryBeamError(f"--data {data}: a video search needs a labelled folder (with labels.csv)")
+    problem = pose_runtime_problem()
+    if problem is not None:
+        raise StoryBeamError(f"--video: {problem}")
+    exclude = [t.strip() for t in args.exclude.split(",") if t.strip()]
+    from retrieval.library import ActSearch  # deferred: loads the search stack, only to search
+
+    search = ActSearch.build(data)
+    unknown = [t for t in exclude if t not in set(search.index.trials)]
+    if unknown:
+        raise StoryBeamError(f"--exclude: {', '.join(unknown)} not in the library {data}")
+    flow = ActItOut(search)
+    with VideoFileSource(path, paced=False) as source:
+        take = flow.take_from_source(source, seconds=0)  # the whole video
+    if not take.poses:
+        raise StoryBeamError(f"--video {path}: no frame could be read")
+    verdict = flow.judge(take)
+    flow.results(take, k=1, exclude=exclude)  # loads the compiled kernels, outside the timing
+    t0 = time.perf_counter()
+    hits = flow.results(take, k=args.top, exclude=exclude)
+    t1 = time.perf_counter()
+    report = {
+        "query": str(path), "data": str(data), "mode": "video", "exclude": exclude,
+        "results": [{"rank": i, **h.as_dict()} for i, h in enumerate(hits, 1)],
+        "detect_rate": take.detect_rate, "pose_ms_median": take.pose_ms_median, "search_ms": (t1 - t0) * 1e3,
+        "frames": len(take.poses), "fps": take.fps, "image_size": list(take.image_size),
+        "verdict": verdict.as_dict(), "clips": len(search),
+    }
+    if args.json_out != "-":
+        print(f"{'rank':>4}  {'trial':<16} {'label':<10} distance")
+        for i, h in enumerate(hits, 1):
+            print(f"{i:>4}  {h.name:<16} {h.label:<10} {h.distance:.5f}")
+        note = "" if verdict.ok else f"; the app would ask to {verdict.reason.replace('_', ' ')} ({verdict.seen:.0%} seen)"
+        print(f"{report['frames']} frames, body in {take.detect_rate:.0%}, pose {take.pose_ms_median:.1f} ms/frame, "
+              f"search {report['search_ms']:.2f} ms, {len(search)} clips{note}")
     if args.json_out == "-":
         json.dump(report, sys.stdout, indent=1)
         sys.stdout.write("\n")

@@ -6,6 +6,9 @@
   background thread;
 * :mod:`app.services.calibration_wizard` -- the teacher's camera calibration as steps the
   UI runs one at a time (board, capture, solve, save), done by ``ar``;
+* :mod:`app.services.act_it_out` -- "Act it out": a camera take tracked into body
+  landmarks (``ar.body``), its verdict (enough of the body seen?) and the nearest motions
+  (``retrieval.library.ActSearch``); no frame is kept;
 * :mod:`app.services.recording` -- recording a scene's narration (Android AudioRecord
   through pyjnius, sounddevice on a desktop) into a crash-safe ``.part`` file.
 
@@ -15,6 +18,20 @@ heavy part when it is first needed. No Kivy, no OpenGL, so all of it is tested d
 """
 from __future__ import annotations
 
+from app.services.act_it_out import (
+    ACT_SETTING,
+    LIFT_HEAD,
+    NO_BODY,
+    SKELETON_BONES,
+    STEP_BACK,
+    ActItOut,
+    ActItOutError,
+    ActLibrary,
+    TakeVerdict,
+    act_it_out_allowed,
+    judge_poses,
+    set_act_it_out_allowed,
+)
 from app.services.calibration_wizard import CalibrationStep, CalibrationWizard
 from app.services.catalog import ClipInfo, MotionCatalog
 from app.services.recording import (
@@ -42,5 +59,7 @@ __all__ = [
     "ThumbnailCache", "StickFrames", "stick_frames", "clip_stick_frames", "library_files", "BONES", "HEAD",
     "VIEW_YAW_DEG",
     "CalibrationWizard", "CalibrationStep",
+    "ActItOut", "ActItOutError", "ActLibrary", "TakeVerdict", "judge_poses", "act_it_out_allowed",
+    "set_act_it_out_allowed", "ACT_SETTING", "STEP_BACK", "LIFT_HEAD", "NO_BODY", "SKELETON_BONES",
     "ChunkRecorder", "ChunkSource", "ArraySource", "RecordingError", "RECORD_RATE", "find_recorder", "discard_stale",
 ]

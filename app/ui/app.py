@@ -53,7 +53,8 @@ class StoryBeamApp(App):
 
     def __init__(self, db_path: str | Path, lang: str | None = None, story_id: str | None = None,
                  demo: bool = False, start_screen: str | None = None,
-                 catalog: MotionCatalog | None = None, renderer_factory: Callable | None = None, **kwargs):
+                 catalog: MotionCatalog | None = None, renderer_factory: Callable | None = None,
+                 act_camera: str | None = None, **kwargs):
         super().__init__(**kwargs)
         self.db_path = Path(db_path)
         self.requested_lang = lang
@@ -80,6 +81,10 @@ class StoryBeamApp(App):
         #: ``index -> Kivy Camera-like object`` for :class:`app.ui.kivy_camera.KivyCameraSource`
         #: (tests give a stand-in; None = ``kivy.core.camera.Camera``)
         self.kivy_camera_factory: Callable | None = None
+        #: the camera "Act it out" films the child with (:mod:`app.ui.act_it_out`): the Kivy
+        #: camera (``kivy:N``; the tablet's front camera ``kivy:1`` on Android), a device number,
+        #: or a video file / image folder played looped (desktop, tests)
+        self.act_camera = act_camera or ("kivy:1" if platform == "android" else "0")
         #: the projector's own window on a second display while the projector screen shows
         #: (:mod:`app.ui.projector_window`)
         self.projector_window = None

@@ -174,6 +174,19 @@ def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, f
         Rectangle(pos=P(0.42, 0.35), size=(0.16 * s, 0.55 * s))
         Triangle(points=[*P(0.25, 0.4), *P(0.75, 0.4), *P(0.5, 0.12)])
         Rectangle(pos=P(0.1, 0.05), size=(0.8 * s, 0.08 * s))
+    elif name == "act":  # "Act it out": a camera watching a child with arms up
+        RoundedRectangle(pos=P(0.04, 0.52), size=(0.36 * s, 0.26 * s), radius=[0.04 * s])
+        Rectangle(pos=P(0.12, 0.76), size=(0.12 * s, 0.05 * s))
+        Color(1, 1, 1)
+        cx, cy = P(0.22, 0.65)
+        Ellipse(pos=(cx - 0.08 * s, cy - 0.08 * s), size=(0.16 * s, 0.16 * s))
+        Color(*colour)
+        Ellipse(pos=(cx - 0.045 * s, cy - 0.045 * s), size=(0.09 * s, 0.09 * s))
+        hx, hy = P(0.72, 0.8)
+        Ellipse(pos=(hx - 0.08 * s, hy - 0.08 * s), size=(0.16 * s, 0.16 * s))
+        for strip in ([(0.72, 0.7), (0.72, 0.38)], [(0.52, 0.82), (0.72, 0.62), (0.92, 0.82)],
+                      [(0.6, 0.06), (0.72, 0.38), (0.84, 0.06)]):
+            Line(points=[c for p in strip for c in P(*p)], width=lw, cap="round", joint="round")
     elif name in ("sky", "grass", "night", "sea", "castle", "forest", "space", "sand"):
         draw_background(name, x, y, s, s)
     else:  # unknown: a plain dot, never an empty button

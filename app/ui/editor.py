@@ -15,6 +15,7 @@ from kivy.uix.screenmanager import Screen
 from kivy.uix.scrollview import ScrollView
 from kivy.uix.widget import Widget
 
+from app.services.act_it_out import act_it_out_allowed
 from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES, find_spins, hop_time
 from app.ui.art import MOTION_COLOURS, draw_background, draw_character_badge
 from app.ui.clip_tiles import ClipTile
@@ -234,8 +235,13 @@ class EditorScreen(Screen):
             self.motion_buttons[name] = b
             motion_grid.add_widget(b)
         right.add_widget(motion_grid)
-        right.add_widget(IconButton("more", t("more_like_this"), on_press=self.more_like_this,
-                                    size_hint_y=None, height=dp(64), font_size=dp(14)))
+        likes = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
+        likes.add_widget(IconButton("more", t("more_like_this"), on_press=self.more_like_this, font_size=dp(14)))
+        self.act_button = None  # "Act it out" (app.ui.act_it_out), unless the teacher switched the camera off
+        if act_it_out_allowed(app.store):
+            self.act_button = IconButton("act", t("act_it_out"), on_press=self.act_it_out, font_size=dp(14))
+            likes.add_widget(self.act_button)
+        right.add_widget(likes)
         finders = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
         self.pose_button = IconButton("jump", t("pose_button"), on_press=self.search_by_pose, font_size=dp(14))
         self.groups_button = IconButton("duplicate", t("groups_button"), on_press=self.browse_groups,
@@ -387,6 +393,21 @@ class EditorScreen(Screen):
             return
         self.pose_view = PosePicker(on_pick=self._pick_clip)
         self.pose_view.open()
+
+    def act_it_out(self) -> None:
+        """Open the camera view (:class:`app.ui.act_it_out.ActItOutView`): the child shows a
+        movement; the motion picked from the nearest ones goes to the selected character."""
+        app = App.get_running_app()
+        if self.selected_character() is None:
+            app.show_message(app.t("pick_character_hint"))
+            return
+        if not act_it_out_allowed(app.store):  # switched off since the screen was drawn
+            self.refresh()
+            return
+        from app.ui.act_it_out import ActItOutView  # deferred: the camera view loads when first opened
+
+        self.act_view = ActItOutView(on_pick=self._pick_clip)
+        self.act_view.open()
 
     def browse_groups(self) -> None:
         """Open the library's own groups (:class:`app.ui.pose_picker.GroupBrowser`)."""

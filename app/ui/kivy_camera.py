@@ -85,6 +85,7 @@ class KivyCameraSource(CameraSource):
             if self._closed:
                 return
             self._closed = True
+            self._pending = None  # an uncollected frame goes with the camera (nothing of a picture is kept)
             self._cond.notify_all()
         if threading.current_thread() is threading.main_thread():
             self._stop_camera()

@@ -159,6 +159,22 @@ STRINGS: dict[str, dict[str, str]] = {
     "audio_pick": {"en": "Tap a sound file (WAV or OGG)", "ja": "おとの ファイルを タップしてね (WAV か OGG)"},
     "audio_none": {"en": "No WAV or OGG files found in:\n{where}", "ja": "WAV や OGG の ファイルが ないよ:\n{where}"},
     "recording_setting": {"en": "Voice recording", "ja": "音声の録音"},
+    # "Act it out" (issue 18): the child's words in hiragana; the teacher's switch may use kanji
+    "act_it_out": {"en": "Act it out", "ja": "やってみせて"},
+    "act_title": {"en": "Show me the move!", "ja": "うごきを みせてね!"},
+    "act_hint": {"en": "Stand in the outline, then tap Start", "ja": "わくの なかに たって、スタートを タップしてね"},
+    "act_start": {"en": "Start", "ja": "スタート"},
+    "act_again": {"en": "Again", "ja": "もう いちど"},
+    "act_get_ready": {"en": "Get ready...", "ja": "よーい…"},
+    "act_go": {"en": "Go!", "ja": "どん!"},
+    "act_moving": {"en": "Move now!", "ja": "うごいて!"},
+    "act_looking": {"en": "Looking for moves like yours...", "ja": "にている うごきを さがして いるよ…"},
+    "act_found": {"en": "Moves like yours: tap one", "ja": "にている うごき: ひとつ タップしてね"},
+    "act_step_back": {"en": "Step back: I need to see all of you", "ja": "うしろに さがってね。からだ ぜんぶを みせてね"},
+    "act_lift_head": {"en": "Lift your head: I need to see your face", "ja": "かおを あげてね。かおを みせてね"},
+    "act_no_body": {"en": "I can't see you: stand in the outline", "ja": "みえないよ。わくの なかに たってね"},
+    "act_unavailable": {"en": "The camera can't be used now: {why}", "ja": "いまは カメラが つかえないよ: {why}"},
+    "act_setting": {"en": "Act it out (camera)", "ja": "「やってみせて」(カメラ)"},
 }
 
 

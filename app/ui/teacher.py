@@ -24,7 +24,7 @@ from kivy.uix.textinput import TextInput
 from kivy.uix.widget import Widget
 
 from app.scene.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice
-from app.services import CalibrationWizard
+from app.services import CalibrationWizard, act_it_out_allowed, set_act_it_out_allowed
 from app.story import RECOVERY_CODE_DIGITS, StorageError, valid_pin
 from app.ui.import_picker import ImportPicker
 from app.ui.narration import RECORDING_SETTING, recording_allowed
@@ -363,6 +363,11 @@ class TeacherScreen(Screen):
         self.action_buttons["rig_camera"] = IconButton("projector", t("rig_camera"), on_press=self.save_camera,
                                                        font_size=dp(13))
         right.add_widget(self.action_buttons["rig_camera"])
+        act_on = act_it_out_allowed(store)  # the class's camera switch for "Act it out" (app.ui.act_it_out)
+        self.action_buttons["act_it_out"] = IconButton(
+            "act", f"{t('act_setting')}: {t('on') if act_on else t('off')}", on_press=self.toggle_act_it_out,
+            selected=act_on, font_size=dp(13))
+        right.add_widget(self.action_buttons["act_it_out"])
         self.status = Label(text="", color=(0.1, 0.3, 0.1, 1), font_size=dp(14), halign="left", valign="top")
         self.status.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
         right.add_widget(self.status)
@@ -418,6 +423,15 @@ class TeacherScreen(Screen):
     def toggle_recording(self) -> None:
         store = App.get_running_app().store
         store.set_setting(RECORDING_SETTING, "off" if recording_allowed(store) else "on")
+        self.refresh()
+
+    def toggle_act_it_out(self) -> None:
+        """Switch the camera feature (*Act it out*) on or off for the class."""
+        app = App.get_running_app()
+        try:
+            set_act_it_out_allowed(app.store, not act_it_out_allowed(app.store))
+        except StorageError as exc:
+            return self._report(str(exc))
         self.refresh()
 
     def export_log(self) -> None:

@@ -29,15 +29,21 @@ BLOCKED = ("numba", "llvmlite", "pyrender", "OpenGL", "trimesh", "matplotlib", "
 #: recipe also installs its ``python_depends``: certifi, chardet, idna, requests, urllib3,
 #: filetype -- python-for-android's pythonforandroid/recipes/kivy/__init__.py, Kivy 2.3.1)
 RECIPE_MODULES = {"kivy": ("kivy", "filetype", "certifi", "chardet", "idna", "requests", "urllib3"), "numpy": ("numpy",), "scipy": ("scipy",), "opencv": ("cv2",),
-                  "sqlite3": ("sqlite3", "_sqlite3"), "pyjnius": ("jnius",)}
-TABLET_MODULES = tuple(m for mods in RECIPE_MODULES.values() for m in mods)
+                  "sqlite3": ("sqlite3", "_sqlite3"), "pyjnius": ("jnius",),
+                  "tflite-runtime": ("tflite_runtime",)}
+#: desktop stand-ins for a recipe's module, allowed here and counted as that recipe: the
+#: desktop has no ``tflite_runtime`` for numpy 2, and ``ai_edge_litert`` is the same TFLite
+#: interpreter (the same ``Interpreter`` API; ar.body.models tries it first, then
+#: ``tflite_runtime``, which the tflite-runtime recipe puts on the device)
+DESKTOP_STANDINS = {"ai_edge_litert": "tflite-runtime"}
+TABLET_MODULES = tuple(m for mods in RECIPE_MODULES.values() for m in mods) + tuple(DESKTOP_STANDINS)
 #: the simulated touches (kivy.tests.common) import pytest, and scripts/coverage.sh starts
 #: coverage.py in every child process: allowed, never counted as the app's
 HARNESS_MODULES = ("pytest", "_pytest", "pluggy", "iniconfig", "py", "pygments", "packaging", "tomli", "exceptiongroup",
                    "coverage", "$coverage")  # "$coverage": a name coverage.py's debug output puts in sys.modules
 #: StoryBeam and the test support modules
 OWN_MODULES = ("app", "ar", "retrieval", "main", "tests", "ui_driver", "tablet_scenarios", "narration_scenarios",
-               "tablet_profile")
+               "act_scenarios", "tablet_profile")
 
 
 def is_third_party(top: str) -> bool:

@@ -631,6 +631,10 @@ from tablet_scenarios import RENDERED as TABLET_RENDERED  # noqa: E402  (issue 1
 from tablet_scenarios import SCENARIOS as TABLET_SCENARIOS  # noqa: E402
 
 SCENARIOS.update(TABLET_SCENARIOS)
+from act_scenarios import RENDERED as ACT_RENDERED  # noqa: E402  (issue 18: Act it out, own file)
+from act_scenarios import SCENARIOS as ACT_SCENARIOS  # noqa: E402
+
+SCENARIOS.update(ACT_SCENARIOS)
 app_ref: list = []
 
 
@@ -768,7 +772,7 @@ if __name__ == "__main__":
             zf.writestr("manifest.json", "{not json")
             zf.writestr("story.json", "{}")
     factory = None
-    if SCENARIO in ("play3d", "projector3d", *TABLET_RENDERED):
+    if SCENARIO in ("play3d", "projector3d", *TABLET_RENDERED, *ACT_RENDERED):
         from app.scene import app_renderer_factory
         factory = app_renderer_factory(DB.parent)
     catalog = MotionCatalog(Path(os.environ["STORYBEAM_TEST_MOTIONS"]), build_index=False) \
