@@ -51,8 +51,18 @@ def mirror_permutation(feature_set: str = "mr17") -> np.ndarray:
     return np.array(perm, dtype=np.int64)
 
 
+#: Features whose sign flips in a mirror image (a left turn becomes a right turn).
+MIRROR_NEGATED = ("heading_rate",)
+
+
 def mirror(features: np.ndarray, feature_set: str = "mr17") -> np.ndarray:
-    return np.asarray(features)[:, mirror_permutation(feature_set)]
+    """The features of the left/right mirror image: sided columns swapped
+    (:func:`mirror_permutation`), signed ones (:data:`MIRROR_NEGATED`) negated."""
+    out = np.asarray(features)[:, mirror_permutation(feature_set)]
+    signed = [i for i, n in enumerate(get_feature_set(feature_set).names) if n in MIRROR_NEGATED]
+    if signed:
+        out[:, signed] = -out[:, signed]
+    return out
 
 
 def time_scale(features: np.ndarray, factor: float) -> np.ndarray:

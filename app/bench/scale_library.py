@@ -16,7 +16,7 @@ import hashlib
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -63,6 +63,30 @@ def _key(sources: Sequence[Clip], quantizer: Quantizer, min_clips: int, min_hour
     return h.hexdigest()[:20]
 
 
+def derived_takes(sources: Sequence[Clip], min_clips: int, min_hours: float, seed: int = 0,
+                  feature_set: str = "mr17") -> Iterator[tuple[str, np.ndarray]]:
+    """The derived takes (label, (frames, d) features) of :func:`build_scale_library`, one
+    at a time, until both ``min_clips`` and ``min_hours`` are reached; classes drawn in
+    proportion to the source clips. Deterministic for a seed: the first takes of a bigger
+    library are those of a smaller one. ``feature_set`` names the sources' features (for
+    mirroring)."""
+    rng = np.random.default_rng(seed)
+    by_class: dict[str, list[np.ndarray]] = {}
+    for c in sources:
+        by_class.setdefault(c.label, []).append(c.features)
+    classes = sorted(by_class)
+    weights = np.array([len(by_class[k]) for k in classes], dtype=np.float64)
+    weights /= weights.sum()
+    target_frames = min_hours * 3600 * float(sources[0].fps)
+    clips = frames = 0
+    while clips < min_clips or frames < target_frames:
+        label = classes[int(rng.choice(len(classes), p=weights))]
+        feats = augmented_take(by_class, label, rng, feature_set=feature_set)
+        clips += 1
+        frames += len(feats)
+        yield label, feats
+
+
 def build_scale_library(sources: Sequence[Clip], quantizer: Quantizer, min_clips: int = 2600,
                         min_hours: float = 9.0, seed: int = 0, cache: bool = True,
                         progress: bool = True) -> ScaleLibrary:
@@ -83,25 +107,12 @@ def build_scale_library(sources: Sequence[Clip], quantizer: Quantizer, min_clips
                                 labels, fps_value)
         except Exception:  # a damaged cache entry is rebuilt
             pass
-    rng = np.random.default_rng(seed)
-    by_class: dict[str, list[np.ndarray]] = {}
-    for c in sources:
-        by_class.setdefault(c.label, []).append(c.features)
-    classes = sorted(by_class)
-    weights = np.array([len(by_class[k]) for k in classes], dtype=np.float64)
-    weights /= weights.sum()
     codes: list[np.ndarray] = []
     labels: list[str] = []
-    frames = 0
-    target_frames = min_hours * 3600 * fps_value
     bar = tqdm(total=min_clips, desc="building scale library", unit="clip", disable=not progress)
-    while len(codes) < min_clips or frames < target_frames:
-        label = classes[int(rng.choice(len(classes), p=weights))]
-        feats = augmented_take(by_class, label, rng)
-        c = quantizer.encode(feats).astype(np.int16 if quantizer.n <= 7 else np.int32)
-        codes.append(c)
+    for label, feats in derived_takes(sources, min_clips, min_hours, seed):
+        codes.append(quantizer.encode(feats).astype(np.int16 if quantizer.n <= 7 else np.int32))
         labels.append(label)
-        frames += len(c)
         bar.update(1)
     bar.close()
     if cache:

@@ -341,6 +341,37 @@ def _run_pose_search(args: argparse.Namespace) -> int:
     return _finish(args, result, format_report(result))
 
 
+# ---------------------------------------------------------------------- storybeam-scale
+STORYBEAM_SCALE_DOC = """The product's search method at library scale (app/bench/storybeam_scale.py, issue 12):
+a derived library of >= --clips clips and >= --hours hours at 30 fps with the storybeam
+features kept, StoryBeamSearcher fitted on it, the 1-NN of every held-out real CMU clip
+timed on one core; exact DTW on the same features over the whole library on the first
+--baseline queries gives the ratio and how often both find the same clip."""
+
+
+def _add_storybeam_scale(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "storybeam-scale", "storybeam method: 1-NN over the scale library, one core",
+                STORYBEAM_SCALE_DOC, _run_storybeam_scale)
+    p.add_argument("--data", type=Path, default=None, help="labelled folder (default: the shared CMU set)")
+    p.add_argument("--clips", type=_at_least(1), default=2600, help="at least this many derived clips (default 2600)")
+    p.add_argument("--hours", type=float, default=9.0, help="and at least this many hours (default 9)")
+    p.add_argument("--baseline", type=_at_least(0), default=5, help="queries also run by exact DTW (default 5)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _run_storybeam_scale(args: argparse.Namespace) -> int:
+    from app.bench.storybeam_scale import format_table, run_storybeam_scale_bench  # deferred: numba
+
+    if not args.hours >= 0:
+        raise StoryBeamError(f"--hours {args.hours:g}: must be 0 or more")
+    data = args.data or SHARED_CMU
+    if not (Path(data) / "labels.csv").is_file():
+        raise StoryBeamError(f"--data {data}: no labels.csv (the shared CMU set, or a labelled folder)")
+    result = run_storybeam_scale_bench(data, min_clips=args.clips, min_hours=args.hours,
+                                       baseline_queries=args.baseline, progress=not args.quiet)
+    return _finish(args, result, format_table(result))
+
+
 # ---------------------------------------------------------------------- act-it-out
 ACT_IT_OUT_DOC = """"Act it out" end to end (app/bench/act_it_out.py, docs/act-it-out.md): synthetic
 performances of --limit trials (a human-proportioned figure and the kid character, 5
@@ -391,6 +422,7 @@ TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
     "fast-search-profile": _add_fast_search_profile,
     "pose-search": _add_pose_search,
     "act-it-out": _add_act_it_out,
+    "storybeam-scale": _add_storybeam_scale,
 }
 
 

@@ -45,6 +45,29 @@ def test_mirror_exchanges_the_columns_of_every_frame():
     assert np.array_equal(mirror(m), x)
 
 
+def test_mirror_negates_the_turning_rate():
+    names = list(augment.get_feature_set("storybeam").names)
+    h = names.index("heading_rate")
+    x = np.random.default_rng(3).normal(size=(7, len(names)))
+    m = mirror(x, "storybeam")
+    assert np.array_equal(m[:, h], -x[:, h])  # a left turn mirrored is a right turn
+    assert np.array_equal(m[:, names.index("lhand_head")], x[:, names.index("rhand_head")])
+    assert np.array_equal(mirror(m, "storybeam"), x)
+
+
+def test_derived_takes_are_the_scale_librarys_stream():
+    from app.bench.scale_library import derived_takes
+
+    rng = np.random.default_rng(0)
+    sources = [SimpleNamespace(label=lab, fps=30.0, features=rng.normal(size=(40 + 5 * i, len(NAMES))))
+               for i, lab in enumerate(["walk", "run", "walk", "jump"])]
+    takes = list(derived_takes(sources, min_clips=12, min_hours=0.001, seed=4))
+    assert len(takes) >= 12 and sum(len(f) for _, f in takes) >= 0.001 * 3600 * 30
+    again = list(derived_takes(sources, min_clips=20, min_hours=0.001, seed=4))
+    assert [lab for lab, _ in again[:len(takes)]] == [lab for lab, _ in takes]  # a prefix of a bigger one
+    assert all(np.array_equal(a, b) for (_, a), (_, b) in zip(takes, again))
+
+
 def test_a_feature_without_a_mirror_partner_is_an_error(monkeypatch):
     monkeypatch.setattr(augment, "get_feature_set", lambda name: SimpleNamespace(names=["hand_hand", "lhand_head"]))
     with pytest.raises(StoryBeamError, match="rhand_head"):

@@ -25,7 +25,7 @@ AR_CONDITION_KEYS = {"detect_rate", "rot_err_deg_median", "trans_err_mm_median",
                      "jitter_raw_deg", "jitter_filtered_deg", "jitter_raw_mm", "jitter_filtered_mm",
                      "landing_error_mm_median", "detect_pose_ms_median", "render_ms_median"}
 EXPECTED_TARGETS = ("retrieval", "ar", "animation", "dtw-kernels", "motion-io", "numpy-retrieval", "fast-search-profile",
-                    "pose-search", "act-it-out")
+                    "pose-search", "act-it-out", "storybeam-scale")
 
 
 def _json(path) -> dict:
@@ -203,6 +203,8 @@ def test_bench_ar_frame_timing_per_renderer(tmp_path, capsys):
     (["animation", "--characters", "dragon"], "unknown character(s) dragon"),
     (["motion-io", "--data", "{tmp}/nope"], "labels.csv not found"),
     (["numpy-retrieval", "{tmp}/nope"], "has no labels.csv"),
+    (["storybeam-scale", "--data", "{tmp}"], "no labels.csv"),
+    (["storybeam-scale", "--data", "{tmp}", "--hours", "-1"], "--hours -1: must be 0 or more"),
 ])
 def test_bad_input_is_a_one_line_error(argv, message, tmp_path, capsys):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
@@ -218,3 +220,24 @@ def test_bad_numbers_are_usage_errors(argv, capsys):
         main(["bench", *argv])
     assert exc.value.code == 2
     assert "error: argument" in capsys.readouterr().err
+
+
+def test_bench_storybeam_scale_on_the_bundled_library(tmp_path, capsys):
+    out = tmp_path / "sbs.json"
+    rc = main(["bench", "storybeam-scale", "--data", str(MOTIONS_DIR), "--clips", "40", "--hours", "0.02",
+               "--baseline", "2", "--quiet", "--json", str(out)])
+    assert rc == 0
+    res = _json(out)
+    assert res["library"]["clips"] >= 40 and res["library"]["hours"] >= 0.02
+    assert res["queries"] >= 6 and 0 < res["search_ms"]["median"] <= res["search_ms"]["p95"]
+    assert res["baseline"]["queries"] == 2 and 0 <= res["baseline"]["same_nearest_clip"] <= 2
+    assert "1-NN search" in capsys.readouterr().out
+
+
+def test_storybeam_scale_with_the_whole_library_shortlisted_is_exact_dtw():
+    from app.bench.storybeam_scale import run_storybeam_scale_bench
+
+    res = run_storybeam_scale_bench(MOTIONS_DIR, min_clips=25, min_hours=0.0, baseline_queries=4,
+                                    shortlist=10_000, progress=False)
+    assert res["baseline"]["same_nearest_clip"] == 4  # re-ranking every clip is exact DTW's 1-NN
+
