@@ -104,7 +104,8 @@ def run_storybeam_scale_bench(data: str | Path, fps: float = 30.0, min_clips: in
                     "derive_seconds": derive_s, "build_seconds": build_s},
         "queries": len(queries),
         "search_ms": {"median": float(np.median(a)), "p95": float(np.percentile(a, 95)), "mean": float(a.mean()),
-                      "max": float(a.max()), "cpu_median": float(np.median(cpu_ms))},
+                      "max": float(a.max()), "cpu_median": float(np.median(cpu_ms)),
+                      "cpu_p95": float(np.percentile(cpu_ms, 95))},
         "baseline": {"queries": n_base,
                      "exact_dtw_ms_median": float(np.median(base_ms)) if base_ms else None,
                      "storybeam_ms_median_same_queries": float(np.median(paired)) if n_base else None,
@@ -124,6 +125,7 @@ def format_table(out: dict) -> str:
         "| measure | value |",
         "|---|---|",
         f"| 1-NN search, median / p95 / max (ms) | {s['median']:.1f} / {s['p95']:.1f} / {s['max']:.1f} |",
+        f"| the same, process CPU time, median / p95 (ms) | {s['cpu_median']:.1f} / {s['cpu_p95']:.1f} |",
         f"| target | < {out['target_ms']:.0f} ms: {'met' if s['p95'] < out['target_ms'] else 'not met'} (p95), "
         f"{'met' if s['median'] < out['target_ms'] else 'not met'} (median) |",
     ]
