@@ -12,6 +12,11 @@ so are the query's:
 * true joint positions (a mocap clip, the evaluation's ceiling) take the same path from
   the positions on (:meth:`ActSearch.search_positions`).
 
+**Per segment.** The frontal set's *relative* features (the ankle–hip distances, per
+their median over the segment: :meth:`FrontalFeatureSet.relative_to_segment`) are made
+relative per library window and per query, so a window and a take of the same motion
+agree whatever the clip around the window does.
+
 **Take-long windows.** A take lasts 3–4 s; library clips last 1–40 s (CMU's dances 4–16
 s). DTW of a short take against a long clip must warp the whole clip onto the take, so
 the library is indexed as *windows* of :data:`WINDOW_SECONDS` (the take's length) every
@@ -33,7 +38,7 @@ subject and motion file).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Collection, Mapping, Sequence
 
@@ -51,14 +56,16 @@ from retrieval.motion import CANONICAL_JOINTS, landmarks_to_positions
 FEATURE_SET = "frontal"
 #: Windows the code search shortlists for exact DTW. Wider than the 3-D index's: a
 #: camera take's features are noisier than a mocap clip's, so its codes are a rougher
-#: guide. Measured on the tuning takes (seed 1, 60 per figure, ar.body): 24 → person
+#: guide. Measured on the tuning takes (seed 1, 60 per figure, ar.body, the first version of
+#: the features — before consistent sides and relative ankle–hip): 24 → person
 #: 0.883, kid 0.550; 64 → 0.917, 0.550; 128 → 0.917, 0.533 (1-NN, trial left out);
 #: search 3.4 / 4.9 / 7.7 ms median on one (shared) core.
 ACT_SHORTLIST = 64
 #: Length of a library window (seconds): a take's length (see the module docstring).
 WINDOW_SECONDS = 3.5
 #: Windows ranked by exact DTW per clip answered (a clip's windows overlap and may
-#: crowd the top of the ranking; each clip is answered once).
+#: crowd the top of the ranking; each clip is answered once). When the top
+#: ``RANK_FACTOR·k`` windows hold fewer than ``k`` clips, every shortlisted window is ranked.
 RANK_FACTOR = 3
 ACT_JSON = "act.json"
 
@@ -151,6 +158,10 @@ class ActSearch:
         if len({c.trial for c in clips}) != len(clips):
             raise StoryBeamError("act search: clip names must be unique")
         entries = windows(clips, window_seconds)
+        fset = get_feature_set(feature_set)
+        if isinstance(fset, FrontalFeatureSet) and fset.relative:  # per window, as a take is per take
+            entries = [(replace(w, features=fset.relative_to_segment(w.features).astype(w.features.dtype)), n, s)
+                       for w, n, s in entries]
         index = MotionIndex.from_clips([w for w, _, _ in entries], dims, feature_set=feature_set, method="storybeam")
         return cls(index, [n for _, n, _ in entries], [s for _, _, s in entries], [w.subject for w, _, _ in entries],
                    [w.source for w, _, _ in entries], shortlist)
@@ -168,7 +179,8 @@ class ActSearch:
         self.index.save(folder)
         (folder / ACT_JSON).write_text(json.dumps({"names": self.names, "starts": self.starts,
                                                    "subjects": self.subjects, "paths": self.paths,
-                                                   "shortlist": self.shortlist}, indent=1))
+                                                   "shortlist": self.shortlist,
+                                                   "relative": list(self.feature_set.relative)}, indent=1))
         return folder
 
     @classmethod
@@ -180,14 +192,19 @@ class ActSearch:
             meta = json.loads(path.read_text())
             names, starts = list(meta["names"]), [int(s) for s in meta["starts"]]
             subjects, paths, shortlist = list(meta["subjects"]), list(meta["paths"]), int(meta["shortlist"])
+            relative = tuple(meta.get("relative", ()))
         except FileNotFoundError:
             raise IndexFormatError(f"{path}: not found (not an act search folder)") from None
         except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
             raise IndexFormatError(f"{path}: unreadable ({type(exc).__name__}: {exc})") from None
         try:
-            return cls(index, names, starts, subjects, paths, shortlist)
+            search = cls(index, names, starts, subjects, paths, shortlist)
         except StoryBeamError as exc:
             raise IndexFormatError(f"{folder}: {exc}") from None
+        if relative != search.feature_set.relative:
+            raise IndexFormatError(f"{path}: built with relative features {list(relative)}, the feature set "
+                                   f"{search.feature_set.name!r} now has {list(search.feature_set.relative)}: rebuild it")
+        return search
 
     # ------------------------------------------------------------------ searching
     def __len__(self) -> int:
@@ -232,6 +249,8 @@ class ActSearch:
         width = self.feature_set.dim
         if q.ndim != 2 or q.shape[1] != width or len(q) == 0 or not np.all(np.isfinite(q)):
             raise StoryBeamError(f"query features must be finite (frames, {width}), got shape {q.shape}")
+        # the relative columns per the query, as the library's per window (idempotent)
+        q = np.ascontiguousarray(self.feature_set.relative_to_segment(q).astype(np.float32), dtype=np.float64)
         drop = {i for t in exclude for i in self._entries.get(t, ())}
         n = len(self.index)
         # several windows of one clip may rank high: rank RANK_FACTOR·k windows, answer k clips
@@ -244,7 +263,11 @@ class ActSearch:
         out: list[ActHit] = []
         seen: set[str] = set()
         fps = self.index.fps
-        for h in s.rerank(q, cands, min(len(cands), RANK_FACTOR * k)):
+        n_rank = min(len(cands), RANK_FACTOR * k)
+        ranked = s.rerank(q, cands, n_rank)
+        if len({self.names[h.index] for h in ranked}) < k and n_rank < len(cands):
+            ranked = s.rerank(q, cands, len(cands))  # a few clips' windows crowded the top: rank every candidate
+        for h in ranked:
             name = self.names[h.index]
             if name in seen:
                 continue

@@ -38,6 +38,18 @@ relative to the hip midpoint, in leg lengths): BlazePose's hips sit 0.08 L above
 joints, its shoulders 0.06 L above CMU's, its foot index 0.14 L below CMU's toe joint
 (the ball of the foot); the table of :data:`UP_OFFSETS` is the result (docs/act-it-out.md).
 
+**Sides kept consistent.** On a body it reads badly (StoryBeam's cartoon kid: a quarter
+of the frames of the tuning takes) BlazePose swaps the whole body's left and right from
+frame to frame — it takes the performer for one seen from behind — and the frames of a
+swap collapse both sides onto the middle. Left and right landmarks are therefore swapped
+back (:func:`consistent_sides`) in every frame whose image *across* direction (the
+left→right shoulder plus left→right hip offsets along the image's x) points the other
+way from the take's majority, and a frame whose across width is under
+:data:`COLLAPSE_FRACTION` of the take's median is treated as missed. A performer who
+really turns round is then seen mirrored while their back is to the camera; the
+features (:mod:`retrieval.features.frontal`) are left/right pairs, so a mirror mostly
+swaps features within a pair.
+
 After the correction ``L`` is measured again and returned with the positions: the
 features divide by it. Frames the estimator missed (``valid`` false) are filled by
 linear interpolation of the frames around them (the first and last seen frames are held
@@ -84,6 +96,14 @@ UP_OFFSETS: dict[str, float] = {
 }
 
 
+#: Left/right BlazePose landmark pairs (eyes, ears, mouth, and every limb landmark).
+LR_PAIRS: tuple[tuple[int, int], ...] = ((1, 4), (2, 5), (3, 6), (7, 8), (9, 10),
+                                         *((i, i + 1) for i in range(11, 33, 2)))
+#: A frame whose image across width (|shoulder dx| + |hip dx|, pixels) is under this
+#: fraction of the take's median is a side swap caught half-way: treated as missed.
+COLLAPSE_FRACTION = 0.3
+
+
 class LandmarkError(StoryBeamError):
     """Landmarks cannot be turned into joint positions (bad shapes, nothing seen)."""
 
@@ -117,6 +137,36 @@ def fill_gaps(values: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return out.reshape(values.shape)
 
 
+def consistent_sides(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray,
+                     collapse: float = COLLAPSE_FRACTION) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The take's landmarks with left and right the same way round in every frame, and
+    the frames caught half-way through a swap marked missed (see the module docstring).
+
+    Per valid frame the across offset is a = (u[R_SHOULDER] − u[L_SHOULDER]) + (u[R_HIP] −
+    u[L_HIP]) (image x, pixels); the take's majority sign of a is kept (a tie keeps the
+    sign of a body facing the camera, a < 0) and every :data:`LR_PAIRS` pair of the
+    frames of the other sign is exchanged in both ``world`` and ``image_xy``. Frames
+    with |shoulder dx| + |hip dx| under ``collapse`` × its median over the valid frames
+    are dropped from ``valid`` (unless that would drop every frame). Returns new arrays."""
+    world, image_xy, ok = _check(world, image_xy, valid)
+    u = image_xy[..., 0]
+    sh, hp = u[:, R_SHOULDER] - u[:, L_SHOULDER], u[:, R_HIP] - u[:, L_HIP]
+    sign = np.sign(sh + hp)
+    major = np.sign(np.sum(sign[ok])) or -1.0
+    flip = ok & (sign == -major)
+    world, image_xy = world.copy(), image_xy.copy()
+    if flip.any():
+        left, right = [a for a, _ in LR_PAIRS], [b for _, b in LR_PAIRS]
+        for arr in (world, image_xy):
+            arr[np.ix_(flip, left + right)] = arr[np.ix_(flip, right + left)]
+    width = np.abs(sh) + np.abs(hp)
+    if collapse > 0:
+        narrow = ok & (width < collapse * np.median(width[ok]))
+        if (ok & ~narrow).any():
+            ok = ok & ~narrow
+    return world, image_xy, ok
+
+
 def metres_per_pixel(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray) -> float:
     """The clip's image scale: median over valid frames of the world torso length
     (shoulder midpoint to hip midpoint, metres) over its image length (pixels)."""
@@ -148,13 +198,15 @@ def landmarks_to_positions(world: np.ndarray, image_xy: np.ndarray, valid: np.nd
     """(T, 18, 3) canonical joint positions (metres, Y up, the camera on +Z), the joint
     map (canonical name -> column) and the leg length (metres) of a take, from BlazePose
     world landmarks (T, 33, 3), image landmarks (T, 33, 2, pixels) and the per-frame
-    ``valid`` flags (see the module docstring for the method). ``image_size`` (w, h) and
+    ``valid`` flags (see the module docstring for the method; left and right are made
+    consistent first, :func:`consistent_sides`). ``image_size`` (w, h) and
     ``fps`` are checked when given (the conversion itself does not depend on them)."""
     world, image_xy, ok = _check(world, image_xy, valid)
     if image_size is not None and not (len(image_size) == 2 and min(image_size) > 0):
         raise LandmarkError(f"image size must be (width, height) in pixels, got {image_size}")
     if fps is not None and not fps > 0:
         raise LandmarkError(f"fps must be positive, got {fps}")
+    world, image_xy, ok = consistent_sides(world, image_xy, ok)
     s = metres_per_pixel(world, image_xy, ok)
     mid_px = (image_xy[ok, L_HIP] + image_xy[ok, R_HIP]) / 2
     u0, v0 = np.median(mid_px, axis=0)
@@ -183,5 +235,5 @@ def landmarks_to_positions(world: np.ndarray, image_xy: np.ndarray, valid: np.nd
     return pos, {n: i for i, n in enumerate(names)}, leg
 
 
-__all__ = ["N_LANDMARKS", "DIRECT", "UP_OFFSETS", "LandmarkError",
-           "fill_gaps", "metres_per_pixel", "landmarks_to_positions"]
+__all__ = ["N_LANDMARKS", "DIRECT", "UP_OFFSETS", "LR_PAIRS", "COLLAPSE_FRACTION", "LandmarkError",
+           "consistent_sides", "fill_gaps", "metres_per_pixel", "landmarks_to_positions"]

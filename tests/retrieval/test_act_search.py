@@ -164,3 +164,35 @@ def test_long_clips_are_searched_by_take_long_windows():
     hits = search.search_positions(positions(m)[120:225], 30.0, k=4, joint_map=jm, body_size=leg_length(sk, jm),
                                    exclude=[m.name])
     assert m.name not in {h.name for h in hits} and len(hits) == 3
+
+
+def test_relative_features_per_window_and_per_query(tmp_path):
+    """The frontal set's ankle–hip distances are relative to their median over each
+    library window, and over the query: a take cut from the middle of a long clip finds
+    its window at distance ~0, and an index saved under another rule is refused."""
+    sk = make_skeleton()
+    clips = []
+    for k, (label, kw) in enumerate(KINDS.items()):
+        m = make_motion(sk, frames=300, period=0.9, knee_bend=20.0 + 40.0 * k, **{a: b for a, b in kw.items()
+                                                                                   if a != "knee_bend"})
+        m.name = label
+        clips.append((m, clip_from_motion(m, label, label, 30.0, "frontal")))
+    search = ActSearch.from_clips([c for _, c in clips], dims=4)
+    fs = search.feature_set
+    ah = [fs.names.index(n) for n in fs.relative]
+    assert ah and len(search.index) > 2
+    for f in search.index.clip_features:
+        assert np.median(np.asarray(f, np.float64)[:, ah].mean(axis=1)) == pytest.approx(1.0, abs=1e-5)
+    m = clips[1][0]
+    start = search.starts[search.names.index(m.name) + 2]  # exactly the third window of the clip
+    jm = canonical_joint_map(sk)
+    hits = search.search_positions(positions(m)[start:start + 105], 30.0, k=1, joint_map=jm,
+                                   body_size=leg_length(sk, jm))
+    assert hits[0].name == m.name and hits[0].start_s == pytest.approx(start / 30.0) and hits[0].distance < 1e-3
+    folder = search.save(tmp_path / "act")
+    meta = json.loads((folder / "act.json").read_text())
+    assert meta["relative"] == list(fs.relative)
+    meta["relative"] = []
+    (folder / "act.json").write_text(json.dumps(meta))
+    with pytest.raises(IndexFormatError, match="rebuild"):
+        ActSearch.load(folder)

@@ -1,7 +1,8 @@
 """The frontal feature set (:mod:`retrieval.features.frontal`): registered, the clip's
 mean heading is what a body facing +Z calls 0, the features do not change when the
 performer turns or walks elsewhere, and depth does not enter them while it does enter
-the 3-D set; the measured rest pose keeps the clip's bone lengths."""
+the 3-D set; the measured rest pose keeps the clip's bone lengths; the ankle–hip
+distances are relative to their median over the segment."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,6 +12,7 @@ from retrieval.features import (
     FRONTAL,
     MR17,
     FeatureError,
+    FrontalFeatureSet,
     available_feature_sets,
     face_camera,
     get_feature_set,
@@ -95,3 +97,29 @@ def test_measured_rest_keeps_bone_lengths():
             continue
         want = np.linalg.norm(rest[jm[joint]] - rest[jm[parent]])
         assert abs(np.linalg.norm(got[jm[joint]] - got[jm[parent]]) - want) < 1e-6, joint
+
+
+def test_ankle_hip_distances_are_relative_to_the_segment():
+    """A body whose knees are read in the wrong place has a long measured leg length:
+    per that length its legs look bent. The ankle–hip distances are therefore per their
+    median over the segment, so they do not depend on the length they were divided by;
+    the other leg features still do."""
+    pos, jm, leg, rest = _clip(0.0, knee_bend=40.0)
+    assert FRONTAL.relative == ("lankle_lhip", "rankle_rhip")
+    ah = [FRONTAL.names.index(n) for n in FRONTAL.relative]
+    hips = FRONTAL.names.index("hips_height")
+    f = FRONTAL.from_positions(pos, jm, leg, 30.0, rest)
+    f_long = FRONTAL.from_positions(pos, jm, 1.3 * leg, 30.0, rest)  # the leg measured 30 % long
+    np.testing.assert_allclose(f_long[:, ah], f[:, ah], rtol=1e-12)
+    np.testing.assert_allclose(f_long[:, hips] * 1.3, f[:, hips], rtol=1e-12)
+    assert np.median(f[:, ah].mean(axis=1)) == pytest.approx(1.0)
+    assert np.ptp(f[:, ah]) > 0.05  # the knee bend is still seen, relative to the usual extension
+    # idempotent: a window of a relative clip made relative again is the window made relative alone
+    np.testing.assert_allclose(FRONTAL.relative_to_segment(f), f, rtol=1e-12)
+    raw = get_feature_set("frontal_legs").from_positions(pos, jm, leg, 30.0, rest)
+    np.testing.assert_allclose(FRONTAL.relative_to_segment(f[10:40])[:, ah],
+                               FRONTAL.relative_to_segment(raw[10:40])[:, ah], rtol=1e-12)
+    with pytest.raises(FeatureError, match="relative features nope"):
+        FrontalFeatureSet(name="bad", specs=MR17.specs, relative=("nope",))
+    with pytest.raises(FeatureError, match=r"\(T, 17\)"):
+        FRONTAL.relative_to_segment(np.zeros((5, 3)))

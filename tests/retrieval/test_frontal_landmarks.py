@@ -2,7 +2,8 @@
 landmarks made from a known body filmed by a pinhole camera, the joints come back in
 StoryBeam's axes with the root's height from the image (a jump rises although world
 landmarks are hip-centred), the documented offsets are applied, frames the estimator
-missed are interpolated, and bad input is refused with a clear error."""
+missed are interpolated, left and right swapped by the estimator in some frames are
+swapped back, and bad input is refused with a clear error."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,13 +11,18 @@ import pytest
 
 from retrieval.motion import canonical_joint_map, positions
 from retrieval.motion.landmarks import (
+    COLLAPSE_FRACTION,
     DIRECT,
     L_EAR,
     L_HIP,
+    L_SHOULDER,
+    LR_PAIRS,
     R_EAR,
     R_HIP,
+    R_SHOULDER,
     UP_OFFSETS,
     LandmarkError,
+    consistent_sides,
     fill_gaps,
     landmarks_to_positions,
     metres_per_pixel,
@@ -131,3 +137,51 @@ def test_bad_input_is_refused(body):
         landmarks_to_positions(world[:, :17], image, np.ones(len(pos), bool))
     with pytest.raises(LandmarkError, match="fps"):
         landmarks_to_positions(world, image, np.ones(len(pos), bool), fps=0.0)
+
+
+def _swap_sides(a: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    out = a.copy()
+    left, right = [i for i, _ in LR_PAIRS], [j for _, j in LR_PAIRS]
+    out[np.ix_(frames, left + right)] = a[np.ix_(frames, right + left)]
+    return out
+
+
+def test_sides_swapped_by_the_estimator_are_swapped_back(body):
+    """BlazePose took the body for one seen from behind in some frames (its left and
+    right exchanged): those frames are put back the way the rest of the take is."""
+    pos, jm = body
+    world, image = fake_landmarks(pos, jm)
+    ok = np.ones(len(pos), bool)
+    ref, rjm, _ = landmarks_to_positions(world, image, ok)
+    swapped = np.zeros(len(pos), bool)
+    swapped[[3, 4, 5, 20, 21, 22, 23, 40, 41, 50]] = True
+    out, _, _ = landmarks_to_positions(_swap_sides(world, swapped), _swap_sides(image, swapped), ok)
+    np.testing.assert_allclose(out, ref, atol=1e-9)
+    assert np.all(out[:, rjm["left_hip"], 0] > out[:, rjm["right_hip"], 0])
+    # swapped in most frames: the take is made consistent the other way (a mirror image)
+    w2, i2, ok2 = consistent_sides(_swap_sides(world, ~swapped), _swap_sides(image, ~swapped), ok)
+    assert ok2.all()
+    np.testing.assert_allclose(w2, _swap_sides(world, np.ones(len(pos), bool)), atol=1e-12)
+    np.testing.assert_allclose(i2, _swap_sides(image, np.ones(len(pos), bool)), atol=1e-12)
+
+
+def test_frames_caught_half_way_through_a_swap_are_missed(body):
+    pos, jm = body
+    world, image = fake_landmarks(pos, jm)
+    ok = np.ones(len(pos), bool)
+    collapsed = image.copy()
+    for a, b in ((L_SHOULDER, R_SHOULDER), (L_HIP, R_HIP)):  # both sides onto the middle in frame 30
+        collapsed[30, [a, b], 0] = collapsed[30, [a, b], 0].mean() + np.array([0.1, -0.1])
+    _, _, kept = consistent_sides(world, collapsed, ok)
+    assert not kept[30] and kept.sum() == len(pos) - 1
+    _, _, kept = consistent_sides(world, collapsed, ok, collapse=0.0)
+    assert kept.all()
+    assert 0 < COLLAPSE_FRACTION < 1
+    gap, gjm, _ = landmarks_to_positions(world, collapsed, ok)
+    w_nan, i_nan = world.copy(), image.copy()
+    ok_gap = ok.copy()
+    ok_gap[30] = False
+    w_nan[30] = np.nan
+    i_nan[30] = np.nan
+    want, _, _ = landmarks_to_positions(w_nan, i_nan, ok_gap)
+    np.testing.assert_allclose(gap, want, atol=1e-9)  # filled like a frame without a body
