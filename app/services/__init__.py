@@ -9,6 +9,8 @@
 * :mod:`app.services.act_it_out` -- "Act it out": a camera take tracked into body
   landmarks (``ar.body``), its verdict (enough of the body seen?) and the nearest motions
   (``retrieval.library.ActSearch``); no frame is kept;
+* :mod:`app.services.background` -- ``BackgroundLoad``: work done once on a background
+  thread (the search indexes), with callbacks when it has ended;
 * :mod:`app.services.recording` -- recording a scene's narration (Android AudioRecord
   through pyjnius, sounddevice on a desktop) into a crash-safe ``.part`` file.
 
@@ -43,6 +45,7 @@ from app.services.recording import (
     discard_stale,
     find_recorder,
 )
+from app.services.background import BackgroundLoad
 from app.services.thumbnails import (
     BONES,
     HEAD,
@@ -58,7 +61,7 @@ __all__ = [
     "MotionCatalog", "ClipInfo",
     "ThumbnailCache", "StickFrames", "stick_frames", "clip_stick_frames", "library_files", "BONES", "HEAD",
     "VIEW_YAW_DEG",
-    "CalibrationWizard", "CalibrationStep",
+    "CalibrationWizard", "CalibrationStep", "BackgroundLoad",
     "ActItOut", "ActItOutError", "ActLibrary", "TakeVerdict", "judge_poses", "act_it_out_allowed",
     "set_act_it_out_allowed", "ACT_SETTING", "STEP_BACK", "LIFT_HEAD", "NO_BODY", "SKELETON_BONES",
     "ChunkRecorder", "ChunkSource", "ArraySource", "RecordingError", "RECORD_RATE", "find_recorder", "discard_stale",

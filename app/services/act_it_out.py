@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any, Callable, Collection
 
 import numpy as np
 
+from app.services.background import BackgroundLoad
 from retrieval.errors import StoryBeamError
 
 if TYPE_CHECKING:
@@ -271,45 +272,22 @@ class ActItOut:
                                        exclude=exclude)
 
 
-class ActLibrary:
+class ActLibrary(BackgroundLoad):
     """The frontal-feature search over a motion folder, built once on a background thread.
 
     ``ready`` / ``error`` say where it stands; :meth:`when_ready` runs a callback on the
     loading thread once loading has ended (the UI moves it onto its own thread)."""
 
+    thread_name = "storybeam-act-library"
+
     def __init__(self, folder: str | Path, build: Callable[[Path], Any] | None = None):
+        super().__init__()
         self.folder = Path(folder)
         self.search: ActSearch | None = None
         self.error: str | None = None
         self._build = build
-        self._done = threading.Event()
-        self._lock = threading.Lock()
-        self._waiting: list[Callable[[], object]] = []
-        self._thread: threading.Thread | None = None
 
-    @property
-    def ready(self) -> bool:
-        return self._done.is_set()
-
-    def start(self) -> None:
-        with self._lock:
-            if self._thread is None:
-                self._thread = threading.Thread(target=self._load, name="storybeam-act-library", daemon=True)
-                self._thread.start()
-
-    def wait(self, timeout: float | None = None) -> bool:
-        self.start()
-        return self._done.wait(timeout)
-
-    def when_ready(self, callback: Callable[[], object]) -> None:
-        self.start()
-        with self._lock:
-            if not self._done.is_set():
-                self._waiting.append(callback)
-                return
-        callback()
-
-    def _load(self) -> None:
+    def _work(self) -> None:
         try:
             build = self._build
             if build is None:
@@ -320,12 +298,6 @@ class ActLibrary:
         except (StoryBeamError, ImportError, OSError, ValueError) as exc:
             self.error = str(exc)
             log.warning("act it out: the motion library cannot be searched: %s", exc)
-        finally:
-            with self._lock:
-                self._done.set()
-                waiting, self._waiting = self._waiting, []
-            for cb in waiting:
-                cb()
 
 
 def pose_runtime_problem() -> str | None:

@@ -17,7 +17,6 @@ picker says it is getting ready and answers as soon as they are.
 from __future__ import annotations
 
 import logging
-import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
@@ -29,6 +28,7 @@ from kivy.uix.gridlayout import GridLayout
 from kivy.uix.modalview import ModalView
 from kivy.uix.scrollview import ScrollView
 
+from app.services import BackgroundLoad
 from app.ui.art import MOTION_COLOURS
 from app.ui.clip_tiles import ClipTile
 from app.ui.pose_figure import PoseFigure, PoseModel
@@ -45,64 +45,38 @@ RESULTS = 6  # clips shown for a pose
 LIBRARY_FPS = 30.0
 
 
-class LibraryExtras:
+class LibraryExtras(BackgroundLoad):
     """The pose search and the groups of a motion folder, loaded once in the background.
     ``ready``, ``error`` and ``groups_error`` tell where loading stands; ``when_ready(callback)`` runs the
     callback (on the Kivy thread) once loading has finished, well or not."""
 
+    thread_name = "storybeam-library-extras"
+
     def __init__(self, folder: str | Path):
+        super().__init__()
         self.folder = Path(folder)
         self.pose_search: PoseSearch | None = None
         self.groups: FolderGrouping | None = None
         self.error: str | None = None  # why the pose search is unavailable
         self.groups_error: str | None = None  # why the groups are unavailable
-        self._done = threading.Event()
-        self._waiting: list[Callable[[], object]] = []
-        self._lock = threading.Lock()
-        self._thread: threading.Thread | None = None
 
-    @property
-    def ready(self) -> bool:
-        return self._done.is_set()
-
-    def start(self) -> None:
-        if self._thread is None:
-            self._thread = threading.Thread(target=self._load, name="storybeam-library-extras", daemon=True)
-            self._thread.start()
-
-    def wait(self, timeout: float | None = None) -> bool:
-        self.start()
-        return self._done.wait(timeout)
-
-    def when_ready(self, callback: Callable[[], object]) -> None:
-        self.start()
-        with self._lock:
-            if not self._done.is_set():
-                self._waiting.append(callback)
-                return
+    def _deliver(self, callback: Callable[[], object]) -> None:
         Clock.schedule_once(lambda dt: callback(), 0)
 
-    def _load(self) -> None:
+    def _work(self) -> None:
         """Build the pose search, then the groups, each on its own: a library too small
         to group can still be searched. Loading always ends (``ready``), whatever fails."""
+        from retrieval.library import PoseSearch, group_folder  # deferred: the search stack loads off the UI thread
         try:
-            from retrieval.library import PoseSearch, group_folder  # deferred: the search stack loads off the UI thread
-            try:
-                self.pose_search = PoseSearch.build(self.folder, fps=LIBRARY_FPS)
-            except (StoryBeamError, OSError, ValueError) as exc:
-                self.error = str(exc)
-                log.warning("pose search unavailable: %s", exc)
-            try:
-                self.groups = group_folder(self.folder, fps=LIBRARY_FPS)
-            except (StoryBeamError, OSError, ValueError) as exc:
-                self.groups_error = str(exc)
-                log.warning("library groups unavailable: %s", exc)
-        finally:
-            with self._lock:
-                self._done.set()
-                waiting, self._waiting = self._waiting, []
-            for cb in waiting:
-                Clock.schedule_once(lambda dt, cb=cb: cb(), 0)
+            self.pose_search = PoseSearch.build(self.folder, fps=LIBRARY_FPS)
+        except (StoryBeamError, OSError, ValueError) as exc:
+            self.error = str(exc)
+            log.warning("pose search unavailable: %s", exc)
+        try:
+            self.groups = group_folder(self.folder, fps=LIBRARY_FPS)
+        except (StoryBeamError, OSError, ValueError) as exc:
+            self.groups_error = str(exc)
+            log.warning("library groups unavailable: %s", exc)
 
     def search(self, model: PoseModel, k: int = RESULTS) -> list[PoseHit]:
         """The clips passing closest through the figure's pose ([] until ready)."""
