@@ -35,10 +35,8 @@ from kivy.graphics.texture import Texture
 from kivy.metrics import dp
 from kivy.properties import StringProperty
 from kivy.uix.boxlayout import BoxLayout
-from kivy.uix.gridlayout import GridLayout
 from kivy.uix.label import Label
 from kivy.uix.modalview import ModalView
-from kivy.uix.scrollview import ScrollView
 from kivy.uix.stencilview import StencilView
 from kivy.uix.widget import Widget
 
@@ -56,7 +54,7 @@ from app.services.act_it_out import (
 )
 from app.ui.art import MOTION_COLOURS
 from app.ui.clip_tiles import ClipTile
-from app.ui.widgets import IconButton, big_label, filled
+from app.ui.widgets import IconButton, big_label, filled, tile_grid
 from retrieval.errors import StoryBeamError
 
 if TYPE_CHECKING:
@@ -337,11 +335,7 @@ class ActItOutView(ModalView):
         right.add_widget(self.status)
         self.prompt = PromptPicture(size_hint_y=None, height=0, opacity=0)  # shown after a refused take
         right.add_widget(self.prompt)
-        self.grid = GridLayout(cols=2, spacing=dp(8), size_hint_y=None, row_default_height=dp(TILE_DP),
-                               row_force_default=True)
-        self.grid.bind(minimum_height=self.grid.setter("height"))
-        scroll = ScrollView(do_scroll_x=False)
-        scroll.add_widget(self.grid)
+        scroll, self.grid = tile_grid(2, TILE_DP)
         right.add_widget(scroll)
         self.start_button = IconButton("act", self.t("act_start"), on_press=self.start_take, size_hint_y=None,
                                        height=dp(96), font_size=dp(18), background=[0.75, 0.95, 0.75, 1])

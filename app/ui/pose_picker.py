@@ -24,15 +24,13 @@ from kivy.app import App
 from kivy.clock import Clock
 from kivy.metrics import dp
 from kivy.uix.boxlayout import BoxLayout
-from kivy.uix.gridlayout import GridLayout
 from kivy.uix.modalview import ModalView
-from kivy.uix.scrollview import ScrollView
 
 from app.services import BackgroundLoad
 from app.ui.art import MOTION_COLOURS
 from app.ui.clip_tiles import ClipTile
 from app.ui.pose_figure import PoseFigure, PoseModel
-from app.ui.widgets import IconButton, big_label, filled
+from app.ui.widgets import IconButton, big_label, filled, tile_grid
 from retrieval.errors import StoryBeamError
 
 if TYPE_CHECKING:
@@ -129,11 +127,7 @@ class PosePicker(ModalView):
         right = BoxLayout(orientation="vertical", spacing=dp(6))
         self.status = big_label(self.t("pose_hint"), 16)
         right.add_widget(self.status)
-        self.grid = GridLayout(cols=2, spacing=dp(8), size_hint_y=None, row_default_height=dp(TILE_DP),
-                               row_force_default=True)
-        self.grid.bind(minimum_height=self.grid.setter("height"))
-        scroll = ScrollView(do_scroll_x=False)
-        scroll.add_widget(self.grid)
+        scroll, self.grid = tile_grid(2, TILE_DP)
         right.add_widget(scroll)
         row.add_widget(right)
         box.add_widget(row)
@@ -184,11 +178,7 @@ class GroupBrowser(ModalView):
         box = filled(BoxLayout(orientation="vertical", padding=dp(16), spacing=dp(10)), (0.95, 1, 0.93, 1))
         self.title = big_label(self.t("groups_title"), 24)
         box.add_widget(self.title)
-        self.grid = GridLayout(cols=3, spacing=dp(8), size_hint_y=None, row_default_height=dp(TILE_DP),
-                               row_force_default=True)
-        self.grid.bind(minimum_height=self.grid.setter("height"))
-        scroll = ScrollView(do_scroll_x=False)
-        scroll.add_widget(self.grid)
+        scroll, self.grid = tile_grid(3, TILE_DP)
         box.add_widget(scroll)
         self.back_button = IconButton("delete", self.t("back"), on_press=self._back, size_hint_y=None,
                                       height=dp(64))

@@ -121,14 +121,23 @@ def newest_files(folders: Iterable[Path], suffixes: tuple[str, ...], limit: int 
     return sorted(found, key=mtime, reverse=True)[:limit]
 
 
+def tile_grid(cols: int, row_dp: float, spacing_dp: float = 8) -> tuple[ScrollView, GridLayout]:
+    """A vertically scrolling grid of ``cols`` columns of rows ``row_dp`` high that grows
+    with its tiles: returns the scroll view (to place) and the grid (to fill)."""
+    grid = GridLayout(cols=cols, spacing=dp(spacing_dp), size_hint_y=None, row_default_height=dp(row_dp),
+                      row_force_default=True)
+    grid.bind(minimum_height=grid.setter("height"))
+    scroll = ScrollView(do_scroll_x=False)
+    scroll.add_widget(grid)
+    return scroll, grid
+
+
 def file_tiles(paths, name: Callable, on_pick: Callable, empty_text: str, row_dp: float = 110,
                font_dp: float = 14, empty_dp: float = 14) -> tuple[ScrollView, dict]:
     """A scrolling grid of big tiles, one per file in ``paths`` (labelled ``name(path)``;
     a tap calls ``on_pick(path)``), or ``empty_text`` when there is none. Returns the
     scroll view and the tiles by ``str(path)`` (what the touch tests tap)."""
-    grid = GridLayout(cols=3, spacing=dp(10), size_hint_y=None, row_default_height=dp(row_dp),
-                      row_force_default=True)
-    grid.bind(minimum_height=grid.setter("height"))
+    scroll, grid = tile_grid(3, row_dp, spacing_dp=10)
     tiles = {}
     for path in paths:
         tile = IconButton("add", name(path), on_press=lambda p=path: on_pick(p), font_size=dp(font_dp))
@@ -136,6 +145,4 @@ def file_tiles(paths, name: Callable, on_pick: Callable, empty_text: str, row_dp
         grid.add_widget(tile)
     if not paths:
         grid.add_widget(big_label(empty_text, empty_dp))
-    scroll = ScrollView(do_scroll_x=False)
-    scroll.add_widget(grid)
     return scroll, tiles
