@@ -20,12 +20,10 @@ the scores; ``--json OUT`` (``-``: stdout) writes::
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from collections import Counter
 from pathlib import Path
 
-from app.commands.output import write_json_report
+from app.commands.output import emit_json_report
 from app.progress import progress_bar
 from retrieval.errors import StoryBeamError
 
@@ -88,9 +86,5 @@ def run(args: argparse.Namespace) -> int:
         if report["at_label_count"] is not None:
             a = report["at_label_count"]
             print(f"at K = {a['clusters']} (the number of labels): purity {a['purity']:.3f}, ARI {a['ari']:.3f}")
-    if args.json_out == "-":
-        json.dump(report, sys.stdout, indent=1)
-        sys.stdout.write("\n")
-    elif args.json_out:
-        write_json_report(args.json_out, report)
+    emit_json_report(args.json_out, report)
     return 0

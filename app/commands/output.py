@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 
@@ -13,3 +14,13 @@ def write_json_report(path: str | Path, report: dict, indent: int = 1) -> Path:
     print(f"wrote {path}")
     return path
 
+
+def emit_json_report(dest: str | Path | None, report: dict, indent: int = 1) -> None:
+    """``--json DEST`` of a command that may print its report: ``"-"`` writes the JSON to
+    standard output, a path writes the file (:func:`write_json_report`), nothing else
+    writes nothing."""
+    if dest == "-":
+        json.dump(report, sys.stdout, indent=indent)
+        sys.stdout.write("\n")
+    elif dest:
+        write_json_report(dest, report, indent)

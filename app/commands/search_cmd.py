@@ -50,12 +50,10 @@ stored or written: only the landmarks, in memory.
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
 from pathlib import Path
 
-from app.commands.output import write_json_report
+from app.commands.output import emit_json_report
 from app.paths import MOTIONS_DIR
 from retrieval.errors import StoryBeamError
 
@@ -152,16 +150,11 @@ def run(args) -> int:
         "search_ms": (t2 - t1) * 1e3, "encode_ms": (t1 - t0) * 1e3, "kernels_ms": (t0 - tw) * 1e3,
         "backend": index.backend, "clips": len(index), "method": index.method,
     }
-    to_stdout = args.json_out == "-"
-    if not to_stdout:
+    if args.json_out != "-":
         _print_table(matches, args.subsequence)
         print(f"{len(index)} clips, search {report['search_ms']:.2f} ms ({index.backend}), "
               f"encode {report['encode_ms']:.2f} ms, kernels {report['kernels_ms']:.0f} ms")
-    if to_stdout:
-        json.dump(report, sys.stdout, indent=1)
-        sys.stdout.write("\n")
-    elif args.json_out:
-        write_json_report(args.json_out, report)
+    emit_json_report(args.json_out, report)
     return 0
 
 
@@ -201,11 +194,7 @@ def _run_pose(args, data: Path, load_motion) -> int:
         for i, h in enumerate(hits, 1):
             print(f"{i:>4}  {h.trial:<16} {h.label:<10} {h.distance:.5f} {h.frame:>6}")
         print(f"{len(search)} clips, search {report['search_ms']:.2f} ms ({search.index.backend})")
-    if args.json_out == "-":
-        json.dump(report, sys.stdout, indent=1)
-        sys.stdout.write("\n")
-    elif args.json_out:
-        write_json_report(args.json_out, report)
+    emit_json_report(args.json_out, report)
     return 0
 
 
@@ -255,11 +244,7 @@ def _run_video(args, data: Path) -> int:
         note = "" if verdict.ok else f"; the app would ask to {verdict.reason.replace('_', ' ')} ({verdict.seen:.0%} seen)"
         print(f"{report['frames']} frames, body in {take.detect_rate:.0%}, pose {take.pose_ms_median:.1f} ms/frame, "
               f"search {report['search_ms']:.2f} ms, {len(search)} clips{note}")
-    if args.json_out == "-":
-        json.dump(report, sys.stdout, indent=1)
-        sys.stdout.write("\n")
-    elif args.json_out:
-        write_json_report(args.json_out, report)
+    emit_json_report(args.json_out, report)
     return 0
 
 
