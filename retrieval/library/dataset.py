@@ -29,7 +29,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from retrieval.errors import DatasetError, StoryBeamError
-from retrieval.features import HEADING_SMOOTH_SECONDS, get_feature_set, leg_length, pose_frames
+from retrieval.features import HEADING_SMOOTH_SECONDS, FeatureSet, get_feature_set, leg_length, pose_frames
 from retrieval.library.clip import Clip
 from retrieval.motion import (
     Motion,
@@ -114,7 +114,7 @@ def _cache_key(row: LabelRow, fps: float | None, feature_set: str) -> str:
     fs = get_feature_set(feature_set)
     if fs.needs_fps:  # a set with a rate: its weights and smoothing are part of what is cached
         parts.append(repr(fs.specs) + repr(HEADING_SMOOTH_SECONDS) + fs.normalise + repr(fs.centre))
-    elif fs.normalise != "legs" or type(fs).__name__ != "FeatureSet":  # e.g. the frontal sets: every field
+    elif type(fs) is not FeatureSet or fs.normalise != "legs":  # a subclass (the frontal sets) or another scale: every field
         parts.append(repr(fs))
     for p in (row.file, row.skeleton):
         if p is not None:
