@@ -72,9 +72,7 @@ def tablet_act_steps(app):
     from app.services.act_it_out import act_it_out_allowed
 
     home = app.sm.get_screen("home")
-    yield drv.touching(lambda: drv.tap(home.new_tile), until=lambda: getattr(home, "arc_view", None) in drv.Window.children)
-    yield drv.touching(lambda: drv.tap(home.arc_view.children[0].children[0].children[-1]),
-                       until=lambda: app.editor is not None and app.sm.current == "editor")
+    yield from drv.open_new_story(app)
     story = lambda: app.editor.story  # noqa: E731
     scene = lambda: story().scene(app.current_scene_id)  # noqa: E731
     chosen = lambda: scene().character(app.selected_character_id)  # noqa: E731

@@ -56,10 +56,7 @@ def _play_3d_steps(app, name: str):
 
 
 def tablet_steps(app):
-    home = app.sm.get_screen("home")
-    yield drv.touching(lambda: drv.tap(home.new_tile), until=lambda: getattr(home, "arc_view", None) in drv.Window.children)
-    yield drv.touching(lambda: drv.tap(home.arc_view.children[0].children[0].children[-1]),
-                       until=lambda: app.editor is not None and app.sm.current == "editor")
+    yield from drv.open_new_story(app)
     story = lambda: app.editor.story  # noqa: E731
     scene = lambda: story().scene(app.current_scene_id)  # noqa: E731
     chosen = lambda: scene().character(app.selected_character_id)  # noqa: E731

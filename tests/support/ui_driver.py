@@ -187,13 +187,19 @@ def editor(app):
 
 
 # --------------------------------------------------------------------------- scenarios
-def touch_story_steps(app):
-    """Three scenes made by touch alone, then wait to be killed. Each touch waits for its
-    effect on the story (see :class:`TouchStep`)."""
+def open_new_story(app):
+    """Touch steps from the home screen to a new story in the editor: *New story*, then
+    the first arc ("short", 3 scenes)."""
     home = app.sm.get_screen("home")
     yield touching(lambda: tap(home.new_tile), until=lambda: getattr(home, "arc_view", None) in Window.children)
     yield touching(lambda: tap(home.arc_view.children[0].children[0].children[-1]),  # "short" arc (3 scenes)
                    until=lambda: app.editor is not None and app.sm.current == "editor")
+
+
+def touch_story_steps(app):
+    """Three scenes made by touch alone, then wait to be killed. Each touch waits for its
+    effect on the story (see :class:`TouchStep`)."""
+    yield from open_new_story(app)
     story = lambda: app.editor.story  # noqa: E731
     for k in range(3):
         def pick_scene(k=k):
