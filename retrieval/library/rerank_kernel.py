@@ -149,6 +149,22 @@ def _numpy_abandon(x: np.ndarray, y: np.ndarray, limit: float, band: int | None)
     return d if d <= limit * (1 + _SLACK) else np.inf
 
 
+def rows_kernel_ready(backend: str = "auto") -> bool:
+    """Whether :func:`dtw_features_abandon_t` can run (the compiled back-end is chosen)."""
+    return HAVE_NUMBA and resolve_backend(backend) == "numba"
+
+
+def dtw_features_abandon_t(x: np.ndarray, y_t: np.ndarray, limit: float = np.inf) -> float:
+    """:func:`dtw_features_abandon` with no band on the compiled path, for a caller that has
+    checked its arrays once (the re-ranking of one query): ``x`` (frames, d) and ``y_t``
+    (d, frames) C-contiguous float64, ``d`` equal, neither empty, and
+    :func:`rows_kernel_ready`. The same kernel and the same result, without the per-call
+    checks (they cost as much as a short re-ranking DTW)."""
+    n = x.shape[0] + y_t.shape[1]
+    raw_limit = limit * n * (1 + _SLACK) if limit < np.inf else np.inf
+    return float(_nb_dtw_euclid_abandon_rows(x, y_t, raw_limit)) / n
+
+
 def dtw_features_abandon(x: np.ndarray, y: np.ndarray, limit: float = np.inf, band: int | None = None,
                          backend: str = "auto", y_t: np.ndarray | None = None) -> float:
     """Normalised Euclidean-cost DTW of float features ``x``, ``y`` (as

@@ -61,7 +61,7 @@ import numpy as np
 
 from retrieval.codes import DiffTable, Quantizer
 from retrieval.errors import StoryBeamError
-from retrieval.library.rerank_kernel import dtw_features_abandon
+from retrieval.library.rerank_kernel import dtw_features_abandon, dtw_features_abandon_t, rows_kernel_ready
 from retrieval.search import FastSearcher
 
 #: Default number of code-nearest clips re-ranked by exact float DTW (the ablation in
@@ -188,10 +188,17 @@ class StoryBeamSearcher:
         ``k``-th best cannot enter the answer and is abandoned (its distance is not
         needed)."""
         best: list[Hit] = []
+        q = np.ascontiguousarray(q, dtype=np.float64)
+        # the compiled no-band kernel straight away when the arrays fit it (checked once here)
+        direct = (self.features_t is not None and q.ndim == 2 and len(q) > 0
+                  and q.shape[1] == self.features[0].shape[1] and rows_kernel_ready(self.backend))
         for i, cd in candidates:
             limit = best[k - 1].distance if len(best) >= k else np.inf
-            d = dtw_features_abandon(q, self.features[i], limit, self.band, self.backend,
-                                     None if self.features_t is None else self.features_t[i])
+            if direct:
+                d = dtw_features_abandon_t(q, self.features_t[i], limit)
+            else:
+                d = dtw_features_abandon(q, self.features[i], limit, self.band, self.backend,
+                                         None if self.features_t is None else self.features_t[i])
             if d <= limit:
                 best.append(Hit(i, d, cd))
                 best.sort(key=lambda h: (h.distance, h.code_distance, h.index))

@@ -77,11 +77,16 @@ if HAVE_NUMBA:
     def _pack_one(seq, size):
         """Runs (value, length), each run's index among the distinct codes, and the sorted
         distinct codes with their counts, of one sequence of codes in [0, size) — what
-        run_length_encode, distinct_counts and a searchsorted give, in two passes."""
+        run_length_encode, distinct_counts and a searchsorted give, in two passes. A code
+        outside [0, size) gives empty arrays (the caller raises, naming the range)."""
         n = seq.shape[0]
         nr = 1
-        for i in range(1, n):
-            if seq[i] != seq[i - 1]:
+        for i in range(n):
+            if seq[i] < 0 or seq[i] >= size:
+                e = np.empty(0, np.int32)
+                f = np.empty(0, np.int64)
+                return e, f, f, e, f
+            if i > 0 and seq[i] != seq[i - 1]:
                 nr += 1
         run_val = np.empty(nr, np.int32)
         run_len = np.empty(nr, np.int64)
@@ -138,9 +143,16 @@ class PackedCodes:
         for i, s in enumerate(seqs):
             if s.ndim != 1 or s.size == 0:
                 raise DTWError(f"sequence {i}: codes must be a non-empty 1-D array, got shape {s.shape}")
-            if size is not None and (s.min() < 0 or s.max() >= size):
+            if size is not None and not (HAVE_NUMBA and len(seqs) == 1) and (s.min() < 0 or s.max() >= size):
                 raise DTWError(f"sequence {i}: codes must lie in [0, {size}), got [{s.min()}, {s.max()}]")
         if HAVE_NUMBA and size is not None:
+            if len(seqs) == 1:  # one query (the search's fixed cost): checked while packed, no concatenation
+                s = seqs[0]
+                rv, rl, rd, dv, dc = _pack_one(s, size)
+                if not len(rv):
+                    raise DTWError(f"sequence 0: codes must lie in [0, {size}), got [{s.min()}, {s.max()}]")
+                return cls(s, np.array([0, len(s)], np.int64), rv, rl, np.array([0, len(rv)], np.int64),
+                           rd, dv, dc, np.array([0, len(dv)], np.int64))
             parts = [_pack_one(s, size) for s in seqs]  # one pass each instead of sort + searches
             runs = [(p[0], p[1]) for p in parts]
             didx = [p[2] for p in parts]

@@ -460,6 +460,16 @@ def test_compiled_packing_equals_the_numpy_packing():
     fast, ref = PackedCodes.from_sequences(seqs, 4096), PackedCodes.from_sequences(seqs)
     for a, b in zip(fast.arrays(), ref.arrays()):
         assert a.dtype == b.dtype and np.array_equal(a, b)
+    # one sequence (a query) is packed without concatenation and checked while packed
+    for seq in seqs:
+        one, ref1 = PackedCodes.from_sequences([seq], 4096), PackedCodes.from_sequences([seq])
+        for a, b in zip(one.arrays(), ref1.arrays()):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
+    for bad in (np.array([3, 4096, 2], np.int32), np.array([-1], np.int32)):
+        with pytest.raises(StoryBeamError, match=r"must lie in \[0, 4096\)"):
+            PackedCodes.from_sequences([bad], 4096)
+        with pytest.raises(StoryBeamError, match=r"must lie in \[0, 4096\)"):
+            PackedCodes.from_sequences([np.array([1], np.int32), bad], 4096)
 
 
 @pytest.mark.parametrize("backend", ["numba", "numpy"])

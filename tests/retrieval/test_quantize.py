@@ -62,6 +62,12 @@ def test_quantizer_codes_cover_the_four_levels_evenly_enough():
     assert np.allclose(frac, [0.159, 0.341, 0.341, 0.159], atol=0.02)
     codes = q.encode(x)
     assert codes.min() >= 0 and codes.max() < 16
+    # encode is levels + pack_codes, written with fewer numpy calls: the same codes
+    assert codes.dtype == np.int32 and np.array_equal(codes, pack_codes(g))
+    q6 = Quantizer.fit(x, 6)
+    on_thresholds = q6.pca.mean + (q6.mu + q6.sigma) @ q6.pca.components[:6]  # coefficients at μ+σ exactly (to rounding)
+    for frames in (x[:500], on_thresholds[None, :]):
+        assert np.array_equal(q6.encode(frames), pack_codes(q6.levels(frames)))
     assert q.cumulative_ratio == pytest.approx(q.pca.ratios[:2].sum())
 
 

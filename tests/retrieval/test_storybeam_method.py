@@ -20,6 +20,7 @@ from retrieval.library import (
     StoryBeamSearcher,
     clip_from_motion,
     dtw_features_abandon,
+    dtw_features_abandon_t,
 )
 from retrieval.library.storybeam_search import centre
 from retrieval.motion import Joint, Motion, Skeleton, axis_rotation, load_motion, resample, save_bvh
@@ -189,6 +190,9 @@ def test_no_band_row_kernel_is_bit_identical_to_the_per_cell_kernel():
         assert dtw_features_abandon(x, y, 0.8 * d, None, "numba", y_t) == dtw_features_abandon(x, y, 0.8 * d, wide, "numba")
         for f in (0.5, 0.9, 1.0):
             assert dtw_features_abandon(x, y, f * d, None, "numba") == dtw_features_abandon(x, y, f * d, wide, "numba")
+            # the re-ranking's unchecked entry (arrays checked once per query): the same results
+            assert dtw_features_abandon_t(x, y_t, f * d) == dtw_features_abandon(x, y, f * d, None, "numba", y_t)
+        assert dtw_features_abandon_t(x, y_t) == d
 
 
 def test_shortlist_mode_runs_by_default_and_exact_on_request():
