@@ -619,6 +619,22 @@ if HAVE_NUMBA:
                     out_dist[qi], stats[qi], True, range_bound)
 
 
+    @numba.njit(cache=True, nogil=True)
+    def _search_serial(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):
+        """:func:`_search_batch` on one thread: every stage of every query in one compiled
+        call (a single query's search crosses into compiled code once, not three times —
+        each crossing unpacks some thirty arrays)."""
+        nq = Q[1].shape[0] - 1
+        ncand = L[1].shape[0] - 1
+        for qi in range(nq):
+            lbs = np.empty(ncand)
+            R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
+            rowmins = np.empty((ncand, Q[8][qi + 1] - Q[8][qi]), np.float32)
+            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs, rowmins)
+            _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi],
+                    out_dist[qi], stats[qi], True, range_bound)
+
+
 # --------------------------------------------------------------------------- public API
 @dataclass
 class SearchResult:
@@ -716,7 +732,10 @@ class FastSearcher:
         use_rle, band = self._plan(packed)
         Q, L, LV = packed.arrays(), self._L, self._LV
         t = self.table
-        if nq == 1 or not parallel:
+        if not parallel and self.use_bounds:  # one thread: all stages in one compiled call
+            _search_serial(Q, L, LV, self._vocab, t.F, t.absdiff, self._shift, self._mask, k, use_rle, band, out_idx,
+                           out_dist, stats, self.range_bound)
+        elif nq == 1 or not parallel:
             for qi in range(nq):
                 self._search_one(packed, Q, qi, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi], parallel)
         else:

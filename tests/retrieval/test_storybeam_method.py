@@ -178,9 +178,12 @@ def test_no_band_row_kernel_is_bit_identical_to_the_per_cell_kernel():
     same abandoning decisions."""
     pytest.importorskip("numba")
     rng = np.random.default_rng(5)
-    for t in range(40):
-        x = rng.normal(size=(int(rng.integers(1, 120)), 18))
-        y = rng.normal(size=(int(rng.integers(1, 120)), 18)) + rng.uniform(-0.5, 0.5)
+    for t in range(80):
+        # any width (three dimensions per pass, then the rest) and odd or even row counts
+        # (rows are taken two at a time, the last one alone)
+        dims = (18, 17, 1, 2, 4)[t % 5]
+        x = rng.normal(size=(int(rng.integers(1, 120)), dims))
+        y = rng.normal(size=(int(rng.integers(1, 120)), dims)) + rng.uniform(-0.5, 0.5)
         wide = len(x) + len(y)
         d = dtw_features_abandon(x, y, np.inf, wide, "numba")
         assert dtw_features_abandon(x, y, np.inf, None, "numba") == d
