@@ -33,7 +33,7 @@ from retrieval.library.grouping import (
 )
 from retrieval.library.index import MotionIndex
 from retrieval.library.motion_choice import choose_clip, clip_path
-from retrieval.library.rerank_kernel import dtw_features_abandon, dtw_features_abandon_t
+from retrieval.library.rerank_kernel import dtw_features_abandon, dtw_features_abandon_t, dtw_features_many
 from retrieval.library.storybeam_search import DIMS as STORYBEAM_DIMS
 from retrieval.library.storybeam_search import SHORTLIST, Hit, StoryBeamSearcher
 from retrieval.library.pose_search import (
@@ -62,6 +62,7 @@ __all__ = [
     "STORYBEAM_DIMS",
     "dtw_features_abandon",
     "dtw_features_abandon_t",
+    "dtw_features_many",
     "choose_clip",
     "clip_path",
     "BUNDLE_SELECTION",

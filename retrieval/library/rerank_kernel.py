@@ -33,6 +33,8 @@ both paths give the same distances bit for bit, and compares.
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 
 from retrieval.dtw import band_limits, dtw_cost_numpy, dtw_features, resolve_backend
@@ -209,6 +211,96 @@ def sequential_cost_matrix(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         t = x[:, k, None] - y[None, :, k]
         s += t * t
     return np.sqrt(s)
+
+
+def dtw_features_many(x: np.ndarray, ys: Sequence[np.ndarray], band: int | None = None,
+                      max_bytes: int = 64 << 20) -> np.ndarray:
+    """Normalised Euclidean-cost DTW of ``x`` to each of ``ys`` on numpy (the tablet's
+    re-ranking), all candidates in one anti-diagonal sweep: each numpy call works on every
+    candidate's diagonal at once, so a shortlist of 64 costs about as many calls as one
+    DTW (the per-pair numpy DP is bound by the cost of its calls, not its arithmetic).
+
+    Bit for bit :func:`dtw_features_abandon` without a limit, pair by pair: each
+    candidate's costs are :func:`sequential_cost_matrix`'s (the same subtraction, square
+    and sum per dimension, in order), each cell is its cost plus the minimum of the same
+    three neighbours. Candidates of different lengths are padded with infinite costs on
+    the right, which no cell of a shorter candidate reads (a cell depends only on cells in
+    its own and earlier columns), and each candidate's distance is read from its own last
+    cell when the sweep reaches it. Cells outside a band are infinite, as in the per-pair
+    path. Candidates go in groups whose diagonal-major costs stay under about ``max_bytes``."""
+    xf = np.ascontiguousarray(x, dtype=np.float64)
+    refs = [np.ascontiguousarray(y, dtype=np.float64) for y in ys]
+    out = np.empty(len(refs))
+    if not refs:
+        return out
+    for r in refs:
+        if xf.ndim != 2 or r.ndim != 2 or r.shape[1] != xf.shape[1] or not len(r) or not len(xf):
+            dtw_features(xf, r, band, "numpy")  # raises the DTWError naming the problem
+    nx = len(xf)
+    # similar lengths share a group (up to twice the shortest: the padding costs less than another sweep)
+    order = np.argsort([len(r) for r in refs], kind="stable")
+    start = 0
+    while start < len(order):
+        first = len(refs[order[start]])
+        stop = start + 1
+        while (stop < len(order) and len(refs[order[stop]]) <= 2 * first
+               and (stop + 1 - start) * (nx + len(refs[order[stop]])) * nx * 8 <= max_bytes):
+            stop += 1
+        group = order[start:stop]
+        out[group] = _many_numpy(xf, [refs[g] for g in group], band)
+        start = stop
+    return out
+
+
+def _many_numpy(x: np.ndarray, refs: Sequence[np.ndarray], band: int | None) -> np.ndarray:
+    nx, dims = x.shape
+    lens = np.array([len(r) for r in refs])
+    ny = int(lens.max())
+    m = len(refs)
+    nd = nx + ny - 1
+    # every cell's cost laid out by anti-diagonal: g[c, d, i] = cost of (i, d - i) for
+    # candidate c (inf off the matrix, in the padding or outside the band), so the sweep
+    # reads each diagonal as a slice
+    rows = np.arange(nx)[None, :]
+    cols = np.arange(nd)[:, None] - rows  # (nd, nx): the column of cell (i, d - i)
+    on = (cols >= 0) & (cols < ny)
+    colc = np.where(on, cols, 0)
+    y = np.zeros((m, ny, dims))
+    for c, r in enumerate(refs):
+        y[c, :len(r)] = r
+    cost = np.zeros((m, nx, ny))
+    for k in range(dims):  # sequential_cost_matrix's order: subtract, square, add, per dimension
+        t = x[None, :, k, None] - y[:, None, :, k]
+        cost += t * t
+    np.sqrt(cost, out=cost)
+    g = cost[:, rows, colc]  # (m, nd, nx), one gather
+    off = ~on[None, :, :] | (colc[None, :, :] >= lens[:, None, None])
+    if band is not None:
+        for c, n in enumerate(lens):
+            lo, hi = band_limits(nx, int(n), band)
+            off[c] |= (colc < lo[None, :]) | (colc > hi[None, :])
+    g[np.broadcast_to(off, g.shape)] = np.inf
+    # dtw_cost_numpy's sweep with a leading candidate axis: diagonal arrays indexed by i + 1,
+    # index 0 standing for row -1 (inf, except the virtual D[-1, -1] = 0 seeding D[0, 0])
+    before = np.full((m, nx + 1), np.inf)
+    before[:, 0] = 0.0
+    last = np.full((m, nx + 1), np.inf)
+    spare = np.full((m, nx + 1), np.inf)
+    best = np.empty((m, nx))
+    result = np.empty(m)
+    finish = nx - 1 + lens - 1  # the diagonal of each candidate's last cell
+    for d in range(nd):
+        np.minimum(last[:, :nx], last[:, 1:], out=best)
+        np.minimum(best, before[:, :nx], out=best)
+        new = spare
+        new[:, 0] = np.inf  # row -1
+        np.add(g[:, d, :], best, out=new[:, 1:])
+        done = np.flatnonzero(finish == d)
+        if len(done):
+            result[done] = new[done, nx]
+        spare = before
+        before, last = last, new
+    return result / (nx + lens)
 
 
 def _numpy_abandon(x: np.ndarray, y: np.ndarray, limit: float, band: int | None) -> float:

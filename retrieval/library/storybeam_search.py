@@ -61,7 +61,13 @@ import numpy as np
 
 from retrieval.codes import DiffTable, Quantizer
 from retrieval.errors import StoryBeamError
-from retrieval.library.rerank_kernel import dtw_features_abandon, dtw_features_abandon_t, rows_kernel_ready
+from retrieval.dtw import resolve_backend
+from retrieval.library.rerank_kernel import (
+    dtw_features_abandon,
+    dtw_features_abandon_t,
+    dtw_features_many,
+    rows_kernel_ready,
+)
 from retrieval.search import FastSearcher
 
 #: Default number of code-nearest clips re-ranked by exact float DTW (the ablation in
@@ -189,6 +195,13 @@ class StoryBeamSearcher:
         needed)."""
         best: list[Hit] = []
         q = np.ascontiguousarray(q, dtype=np.float64)
+        if candidates and resolve_backend(self.backend) == "numpy":
+            # the tablet's path: every candidate's exact DTW in one numpy sweep (no abandoning
+            # there, which changes no answer: an abandoned candidate is never in the k best)
+            ds = dtw_features_many(q, [self.features[i] for i, _ in candidates], self.band)
+            best = [Hit(i, float(d), cd) for (i, cd), d in zip(candidates, ds)]
+            best.sort(key=lambda h: (h.distance, h.code_distance, h.index))
+            return best[:k]
         # the compiled no-band kernel straight away when the arrays fit it (checked once here)
         direct = (self.features_t is not None and q.ndim == 2 and len(q) > 0
                   and q.shape[1] == self.features[0].shape[1] and rows_kernel_ready(self.backend))

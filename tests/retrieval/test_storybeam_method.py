@@ -21,6 +21,7 @@ from retrieval.library import (
     clip_from_motion,
     dtw_features_abandon,
     dtw_features_abandon_t,
+    dtw_features_many,
 )
 from retrieval.library.storybeam_search import centre
 from retrieval.motion import Joint, Motion, Skeleton, axis_rotation, load_motion, resample, save_bvh
@@ -196,6 +197,38 @@ def test_no_band_row_kernel_is_bit_identical_to_the_per_cell_kernel():
             # the re-ranking's unchecked entry (arrays checked once per query): the same results
             assert dtw_features_abandon_t(x, y_t, f * d) == dtw_features_abandon(x, y, f * d, None, "numba", y_t)
         assert dtw_features_abandon_t(x, y_t) == d
+
+
+def test_many_at_once_numpy_rerank_is_bit_identical_pair_by_pair():
+    """The tablet's re-ranking sweeps every candidate at once (padded, grouped by length,
+    laid out by anti-diagonal): each distance equals the per-pair numpy DTW bit for bit —
+    with and without a band, with groups forced small, with lengths far apart."""
+    rng = np.random.default_rng(11)
+    for t in range(60):
+        dims = int(rng.integers(1, 8))
+        x = rng.normal(size=(int(rng.integers(1, 30)), dims))
+        ys = [rng.normal(size=(int(rng.integers(1, 70)), dims)) for _ in range(int(rng.integers(1, 8)))]
+        for band in (None, 0, 3):
+            got = dtw_features_many(x, ys, band, max_bytes=int(rng.choice([1 << 10, 64 << 20])))
+            want = [dtw_features_abandon(x, y, np.inf, band, "numpy") for y in ys]
+            assert got.tolist() == want
+            assert want == [dtw_features(x, y, band, "numpy") for y in ys]
+    assert dtw_features_many(np.zeros((3, 2)), []).shape == (0,)
+    with pytest.raises(StoryBeamError):
+        dtw_features_many(np.zeros((3, 2)), [np.zeros((4, 2)), np.zeros((4, 3))])
+
+
+@pytest.mark.parametrize("shortlist", [2, 6])
+def test_numpy_search_answers_as_the_compiled_one(shortlist):
+    """The tablet's path (numpy: codes, bounds and the all-at-once re-ranking) returns the
+    compiled path's clips, in order, at the same distances bit for bit."""
+    pytest.importorskip("numba")
+    lib = _library()
+    fast = StoryBeamSearcher.fit(lib[4:], dims=4, shortlist=shortlist, backend="numba")
+    slow = StoryBeamSearcher.fit(lib[4:], dims=4, shortlist=shortlist, backend="numpy")
+    for q in lib[:4]:
+        a, b = fast.search(q, k=3), slow.search(q, k=3)
+        assert [(h.index, h.distance) for h in a] == [(h.index, h.distance) for h in b]
 
 
 def test_shortlist_mode_runs_by_default_and_exact_on_request():
