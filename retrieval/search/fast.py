@@ -886,6 +886,42 @@ class FastSearcher:
             stats.completed += len(lib) - pruned - rejected - abandoned
         return SearchResult(out_idx, out_dist, stats)
 
+    def _runs_batches_numpy(self, q_runs: np.ndarray, q_lens: np.ndarray, q_frames: int, lbs: np.ndarray,
+                            order: np.ndarray, k: int) -> tuple[list[tuple[float, int]], int]:
+        """The k nearest clips by the ``"runs"`` distance, on numpy, candidates taken in
+        bound order in batches (8, then 16, 32, …): before each batch the k-th best
+        distance so far prunes by bound (the order is sorted, so the rest go too), then the
+        batch's DPs run together with early abandoning against that distance
+        (:func:`runs_dtw_rows_batch_numpy`). A candidate in the final k best has a distance
+        at most every threshold used on the way, so it is never pruned or abandoned; the
+        answers are those of the one-by-one loop (sorted by distance, then index). Used
+        when every sum is exact, so the batched row scans give the sequential DP's values
+        bit for bit. Returns (best (distance, index) pairs, clips pruned by bound)."""
+        lib = self.library
+        best: list[tuple[float, int]] = []
+        pos, size = 0, 8
+        while pos < len(order):
+            thr = best[k - 1][0] if len(best) >= k else np.inf
+            batch = order[pos:pos + size]
+            keep = lbs[batch] <= thr
+            if not keep.all():  # sorted by bound: everything from the first failure on is pruned
+                batch = batch[:int(np.argmin(keep))]
+                stop = True
+            else:
+                stop = False
+            if len(batch):
+                runs = [(lib.run_val[lib.run_off[c]:lib.run_off[c + 1]], lib.run_len[lib.run_off[c]:lib.run_off[c + 1]])
+                        for c in batch]
+                frames = np.array([lib.code_off[c + 1] - lib.code_off[c] for c in batch], np.float64) + q_frames
+                limits = thr * frames if thr < np.inf else np.full(len(batch), np.inf)
+                raw = runs_dtw_rows_batch_numpy(self.table, q_runs, q_lens, runs, limits)
+                best = sorted(best + [(float(r) / f, int(c)) for r, f, c in zip(raw, frames, batch)])[:k]
+            pos += size if not stop else len(batch)
+            if stop:
+                return best, len(order) - pos
+            size *= 2
+        return best, 0
+
     def _search_numpy_plain(self, packed: PackedCodes, k: int) -> SearchResult:
         """The numpy path for a band, the \"runs\" mode or sums that may round: per-candidate
         bounds and the anti-diagonal DP of :mod:`retrieval.dtw.kernels`."""
@@ -917,6 +953,11 @@ class FastSearcher:
             pruned = 0
             q_runs = packed.run_val[packed.run_off[qi]:packed.run_off[qi + 1]]
             q_lens = packed.run_len[packed.run_off[qi]:packed.run_off[qi + 1]]
+            if self.mode == "runs" and exact_sums and self.band is None:
+                # many candidates' run-length DPs at once (the per-candidate loop is bound by
+                # the cost of its numpy calls): the same k answers, see _runs_batches_numpy
+                best, pruned = self._runs_batches_numpy(q_runs, q_lens, len(a), lbs, order, k)
+                order = order[:0]
             for pos, c in enumerate(order):
                 thr = best[k - 1][0] if len(best) >= k else np.inf
                 if lbs[c] > thr:
@@ -977,6 +1018,49 @@ def runs_dtw_numpy(cost: np.ndarray, a_len: np.ndarray, b_len: np.ndarray) -> fl
         new[p + 1] = np.minimum(np.minimum(diag, up), lf)
         before, last = last, new
     return float(last[kx])
+
+
+def runs_dtw_rows_batch_numpy(table, q_runs: np.ndarray, q_lens: np.ndarray,
+                              candidates: Sequence[tuple[np.ndarray, np.ndarray]], limits: np.ndarray) -> np.ndarray:
+    """:func:`runs_dtw_rows_numpy` for many candidates at once: each candidate's (run values,
+    run lengths) against the query's runs, raw (unnormalised) distances, ``inf`` for a
+    candidate whose whole row exceeds its ``limits`` entry. Candidates are padded on the
+    right to the most runs (cost 0, length 0); a padded column never feeds a real one
+    (cells depend only on columns at or left of their own), and each row's minimum, the
+    abandoning test, is taken over the real columns only. Per candidate the operations are
+    those of :func:`runs_dtw_rows_numpy` along a leading axis: the same values bit for bit
+    under exact sums (the caller's condition)."""
+    m = len(candidates)
+    ky = np.array([len(v) for v, _ in candidates])
+    width = int(ky.max())
+    vals = np.zeros((m, width), np.int64)
+    w = np.zeros((m, width))
+    for c, (v, ln) in enumerate(candidates):
+        vals[c, :len(v)] = v
+        w[c, :len(ln)] = ln
+    real = np.arange(width)[None, :] < ky[:, None]
+    cost = table.lookup(np.asarray(q_runs, np.int64)[:, None, None], vals[None, :, :])  # (query runs, m, width)
+    cost[:, ~real] = 0.0
+    h = np.asarray(q_lens, dtype=np.float64)
+    alive = np.ones(m, bool)
+    lim = np.asarray(limits, dtype=np.float64)
+    prev = None
+    for p in range(cost.shape[0]):
+        c = cost[p]
+        if prev is None:
+            x = np.full((m, width), np.inf)
+            x[:, 0] = c[:, 0] * np.maximum(h[0], w[:, 0])
+        else:
+            x = prev + c * h[p]
+            x[:, 1:] = np.minimum(x[:, 1:], prev[:, :-1] + c[:, 1:] * np.maximum(h[p], w[:, 1:]))
+        steps = np.cumsum(c * w, axis=1)
+        cur = steps + np.minimum.accumulate(x - steps, axis=1)
+        alive &= ~(np.where(real, cur, np.inf).min(axis=1) > lim)
+        if not alive.any():
+            return np.full(m, np.inf)
+        prev = cur
+    out = prev[np.arange(m), ky - 1]
+    return np.where(alive, out, np.inf)
 
 
 def runs_dtw_rows_numpy(cost: np.ndarray, a_len: np.ndarray, b_len: np.ndarray, limit: float = np.inf) -> float:

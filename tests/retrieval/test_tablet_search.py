@@ -207,6 +207,37 @@ def test_tablet_profile_search_answers_as_the_desktop(where, tmp_path, request):
     assert tablet["search_ms"] > 0
 
 
+def test_runs_row_scans_in_batches_equal_one_by_one_and_the_compiled_search(tables):
+    """The numpy "runs" search takes candidates in batches (``runs_dtw_rows_batch_numpy``:
+    padded to the most runs, abandoning per candidate): each raw distance equals the
+    one-by-one row scan bit for bit, inf only above that candidate's limit; and the numpy
+    search (batches of 8, 16, …, pruning between them) answers as the compiled one for k
+    of 1 to 12, on libraries larger than a batch."""
+    from retrieval.dtw import run_length_encode
+    from retrieval.search.fast import runs_dtw_rows_batch_numpy, runs_dtw_rows_numpy
+
+    _full, diff = tables
+    rng = np.random.default_rng(33)
+    for _ in range(40):
+        q = _slow_codes(rng, max_runs=30)
+        qv, ql = run_length_encode(q)
+        cands = [run_length_encode(_slow_codes(rng, max_runs=int(rng.integers(2, 40)))) for _ in range(int(rng.integers(1, 12)))]
+        refs = np.array([runs_dtw_rows_numpy(diff.lookup(qv[:, None], v[None, :]), ql, ln) for v, ln in cands])
+        assert np.array_equal(runs_dtw_rows_batch_numpy(diff, qv, ql, cands, np.full(len(cands), np.inf)), refs)
+        limits = refs * rng.uniform(0.5, 1.5, len(refs))
+        got = runs_dtw_rows_batch_numpy(diff, qv, ql, cands, limits)
+        assert all(g == r if r <= lim else g in (np.inf, r) for g, r, lim in zip(got, refs, limits))
+    lib = [_slow_codes(rng, max_runs=30) for _ in range(90)]
+    queries = [_slow_codes(rng, max_runs=30) for _ in range(6)] + [lib[5]]
+    for k in (1, 5, 12):
+        numpy_runs = FastSearcher(lib, diff, mode="runs", backend="numpy").search(queries, k=k)
+        if HAVE_NUMBA:
+            compiled = FastSearcher(lib, diff, mode="runs", backend="numba").search(queries, k=k, parallel=False)
+            assert np.array_equal(numpy_runs.indices, compiled.indices)
+            assert np.array_equal(numpy_runs.distances, compiled.distances)
+        assert numpy_runs.indices[-1, 0] == 5 and numpy_runs.distances[-1, 0] == 0.0
+
+
 def test_runs_row_scan_equals_the_runs_dp_and_abandons_only_above_the_limit(tables):
     """The "runs" mode's numpy DP by row scans (``runs_dtw_rows_numpy``, what the tablet's
     storybeam shortlist runs) equals the anti-diagonal one bit for bit under exact sums,
