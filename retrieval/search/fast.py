@@ -606,33 +606,33 @@ if HAVE_NUMBA:
         stats[3] = completed
         stats[4] = range_rejected
 
+    @numba.njit(cache=True, nogil=True)
+    def _search_query(qi, Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats,
+                      range_bound):
+        """Every stage for query ``qi``: its table rows, every candidate's bounds, the
+        candidate loop (writes row ``qi`` of the outputs)."""
+        ncand = L[1].shape[0] - 1
+        lbs = np.empty(ncand)
+        R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
+        rowmins = np.empty((ncand, Q[8][qi + 1] - Q[8][qi]), np.float32)
+        _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs, rowmins)
+        _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi],
+                out_dist[qi], stats[qi], True, range_bound)
+
     @numba.njit(cache=True, nogil=True, parallel=True)
     def _search_batch(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):
-        nq = Q[1].shape[0] - 1
-        ncand = L[1].shape[0] - 1
-        for qi in numba.prange(nq):
-            lbs = np.empty(ncand)
-            R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
-            rowmins = np.empty((ncand, Q[8][qi + 1] - Q[8][qi]), np.float32)
-            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs, rowmins)
-            _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi],
-                    out_dist[qi], stats[qi], True, range_bound)
-
+        for qi in numba.prange(Q[1].shape[0] - 1):
+            _search_query(qi, Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats,
+                          range_bound)
 
     @numba.njit(cache=True, nogil=True)
     def _search_serial(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):
         """:func:`_search_batch` on one thread: every stage of every query in one compiled
         call (a single query's search crosses into compiled code once, not three times —
         each crossing unpacks some thirty arrays)."""
-        nq = Q[1].shape[0] - 1
-        ncand = L[1].shape[0] - 1
-        for qi in range(nq):
-            lbs = np.empty(ncand)
-            R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
-            rowmins = np.empty((ncand, Q[8][qi + 1] - Q[8][qi]), np.float32)
-            _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs, rowmins)
-            _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi],
-                    out_dist[qi], stats[qi], True, range_bound)
+        for qi in range(Q[1].shape[0] - 1):
+            _search_query(qi, Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats,
+                          range_bound)
 
 
 # --------------------------------------------------------------------------- public API
