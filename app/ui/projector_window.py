@@ -246,8 +246,16 @@ def _window_main(argv: list[str] | None = None) -> int:
     parent_gone = threading.Event()
 
     def watch_stdin() -> None:  # EOF: the app closed us, or died
+        # os.read on the descriptor, not sys.stdin.buffer.read(): a daemon thread inside the
+        # buffered reader holds its lock, and if the interpreter shuts down at that moment
+        # (the app closed the screen: CLOSED and EOF arrive together) CPython aborts
+        # ("could not acquire lock for <stdin> at interpreter shutdown"), exit status -6
         try:
-            sys.stdin.buffer.read()
+            fd = sys.stdin.fileno()
+            while os.read(fd, 1 << 16):
+                pass
+        except (OSError, ValueError):
+            pass
         finally:
             parent_gone.set()
     threading.Thread(target=watch_stdin, daemon=True).start()
