@@ -118,14 +118,8 @@ class Quantizer:
         return levels(self.pca.project(frames, self.n), self.mu, self.sigma)
 
     def encode(self, frames: np.ndarray) -> np.ndarray:
-        """(T, d) features -> (T,) int32 codes in [0, 4ⁿ): :func:`levels` then
-        :func:`pack_codes` (the same projection and comparisons, in half as many numpy
-        calls: a query's encoding is part of every search's fixed cost)."""
-        a = self.pca.project(frames, self.n)
-        g = (a >= self.mu - self.sigma).astype(np.int32)
-        g += a >= self.mu
-        g += a >= self.mu + self.sigma
-        return g @ (4 ** np.arange(self.n, dtype=np.int32))
+        """(T, d) features -> (T,) int32 codes in [0, 4ⁿ)."""
+        return pack_codes(self.levels(frames))
 
     def table(self, max_full_dims: int = MAX_FULL_DIMS) -> np.ndarray | SplitTable:
         return code_table(self.ratios, max_full_dims)
