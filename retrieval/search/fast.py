@@ -140,24 +140,29 @@ class PackedCodes:
         if len(sequences) == 0:
             raise DTWError("no code sequences to search")
         seqs = [np.ascontiguousarray(s, dtype=np.int32) for s in sequences]
+
+        def out_of_range(i: int, s: np.ndarray) -> DTWError:
+            return DTWError(f"sequence {i}: codes must lie in [0, {size}), got [{s.min()}, {s.max()}]")
+
         for i, s in enumerate(seqs):
             if s.ndim != 1 or s.size == 0:
                 raise DTWError(f"sequence {i}: codes must be a non-empty 1-D array, got shape {s.shape}")
-            if size is not None and not (HAVE_NUMBA and len(seqs) == 1) and (s.min() < 0 or s.max() >= size):
-                raise DTWError(f"sequence {i}: codes must lie in [0, {size}), got [{s.min()}, {s.max()}]")
         if HAVE_NUMBA and size is not None:
-            if len(seqs) == 1:  # one query (the search's fixed cost): checked while packed, no concatenation
-                s = seqs[0]
-                rv, rl, rd, dv, dc = _pack_one(s, size)
-                if not len(rv):
-                    raise DTWError(f"sequence 0: codes must lie in [0, {size}), got [{s.min()}, {s.max()}]")
-                return cls(s, np.array([0, len(s)], np.int64), rv, rl, np.array([0, len(rv)], np.int64),
+            parts = [_pack_one(s, size) for s in seqs]  # one pass each instead of sort + searches; checks the range
+            for i, (s, p) in enumerate(zip(seqs, parts)):
+                if not len(p[0]):
+                    raise out_of_range(i, s)
+            if len(seqs) == 1:  # one query (the search's fixed cost): its arrays as they are, no concatenation
+                rv, rl, rd, dv, dc = parts[0]
+                return cls(seqs[0], np.array([0, len(seqs[0])], np.int64), rv, rl, np.array([0, len(rv)], np.int64),
                            rd, dv, dc, np.array([0, len(dv)], np.int64))
-            parts = [_pack_one(s, size) for s in seqs]  # one pass each instead of sort + searches
             runs = [(p[0], p[1]) for p in parts]
             didx = [p[2] for p in parts]
             dists = [(p[3], p[4]) for p in parts]
         else:
+            for i, s in enumerate(seqs):
+                if size is not None and (s.min() < 0 or s.max() >= size):
+                    raise out_of_range(i, s)
             runs = [run_length_encode(s) for s in seqs]
             dists = [distinct_counts(s) for s in seqs]
             didx = [np.searchsorted(d[0], r[0]).astype(np.int64) for r, d in zip(runs, dists)]
