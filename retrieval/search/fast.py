@@ -909,20 +909,16 @@ class FastSearcher:
             thr = best[k - 1][0] if len(best) >= k else np.inf
             batch = order[pos:pos + size]
             keep = lbs[batch] <= thr
-            if not keep.all():  # sorted by bound: everything from the first failure on is pruned
-                batch = batch[:int(np.argmin(keep))]
-                stop = True
-            else:
-                stop = False
-            if len(batch):
+            cut = len(batch) if keep.all() else int(np.argmin(keep))  # sorted by bound: the rest from here are pruned
+            if cut:
+                batch = batch[:cut]
                 runs = [(lib.run_val[lib.run_off[c]:lib.run_off[c + 1]], lib.run_len[lib.run_off[c]:lib.run_off[c + 1]])
                         for c in batch]
                 frames = np.array([lib.code_off[c + 1] - lib.code_off[c] for c in batch], np.float64) + q_frames
-                limits = thr * frames if thr < np.inf else np.full(len(batch), np.inf)
-                raw = runs_dtw_rows_batch_numpy(self.table, q_runs, q_lens, runs, limits)
+                raw = runs_dtw_rows_batch_numpy(self.table, q_runs, q_lens, runs, thr * frames)
                 best = sorted(best + [(float(r) / f, int(c)) for r, f, c in zip(raw, frames, batch)])[:k]
-            pos += size if not stop else len(batch)
-            if stop:
+            pos += cut
+            if cut < size:  # pruned by bound, or the end of the order
                 return best, len(order) - pos
             size *= 2
         return best, 0
@@ -977,14 +973,10 @@ class FastSearcher:
                     if rb * (1.0 - 1e-9) / (len(a) + len(b)) > thr:
                         rejected += 1
                         continue
-                if self.mode == "runs":
+                if self.mode == "runs":  # sums that may round (exact ones went by batches above)
                     av, al = run_length_encode(a)
                     bv, bl = run_length_encode(b)
-                    block = self.table.lookup(av[:, None], bv[None, :])
-                    if exact_sums:  # row scans with early abandoning: the same sums, exactly
-                        raw = runs_dtw_rows_numpy(block, al, bl, thr * (len(a) + len(b)))
-                    else:
-                        raw = runs_dtw_numpy(block, al, bl)
+                    raw = runs_dtw_numpy(self.table.lookup(av[:, None], bv[None, :]), al, bl)
                 else:
                     lo, hi = band_limits(len(a), len(b), self.band)
                     raw = dtw_cost_numpy(self.table.lookup(a[:, None], b[None, :]), lo, hi)
@@ -1043,29 +1035,8 @@ def runs_dtw_rows_batch_numpy(table, q_runs: np.ndarray, q_lens: np.ndarray,
     for c, (v, ln) in enumerate(candidates):
         vals[c, :len(v)] = v
         w[c, :len(ln)] = ln
-    real = np.arange(width)[None, :] < ky[:, None]
     cost = table.lookup(np.asarray(q_runs, np.int64)[:, None, None], vals[None, :, :])  # (query runs, m, width)
-    cost[:, ~real] = 0.0
-    h = np.asarray(q_lens, dtype=np.float64)
-    alive = np.ones(m, bool)
-    lim = np.asarray(limits, dtype=np.float64)
-    prev = None
-    for p in range(cost.shape[0]):
-        c = cost[p]
-        if prev is None:
-            x = np.full((m, width), np.inf)
-            x[:, 0] = c[:, 0] * np.maximum(h[0], w[:, 0])
-        else:
-            x = prev + c * h[p]
-            x[:, 1:] = np.minimum(x[:, 1:], prev[:, :-1] + c[:, 1:] * np.maximum(h[p], w[:, 1:]))
-        steps = np.cumsum(c * w, axis=1)
-        cur = steps + np.minimum.accumulate(x - steps, axis=1)
-        alive &= ~(np.where(real, cur, np.inf).min(axis=1) > lim)
-        if not alive.any():
-            return np.full(m, np.inf)
-        prev = cur
-    out = prev[np.arange(m), ky - 1]
-    return np.where(alive, out, np.inf)
+    return _runs_rows(cost, q_lens, w, ky, limits)
 
 
 def runs_dtw_rows_numpy(cost: np.ndarray, a_len: np.ndarray, b_len: np.ndarray, limit: float = np.inf) -> float:
@@ -1081,24 +1052,37 @@ def runs_dtw_rows_numpy(cost: np.ndarray, a_len: np.ndarray, b_len: np.ndarray, 
     ``limit`` is safe. The sums are regrouped, so the value equals the sequential DP bit
     for bit only when every sum is exact (:func:`retrieval.dtw.rle_is_exact`), which is
     when the caller uses it."""
-    kx, ky = cost.shape
-    h = np.asarray(a_len, dtype=np.float64)
+    c = np.asarray(cost, dtype=np.float64)
     w = np.asarray(b_len, dtype=np.float64)
+    return float(_runs_rows(c[:, None, :], a_len, w[None, :], np.array([c.shape[1]]), np.array([limit]))[0])
+
+
+def _runs_rows(cost: np.ndarray, q_lens: np.ndarray, w: np.ndarray, ky: np.ndarray, limits) -> np.ndarray:
+    """The row scans of :func:`runs_dtw_rows_numpy` for ``m`` candidates side by side:
+    ``cost`` (query runs, m, width), ``w`` (m, width) run lengths, ``ky`` each candidate's
+    real width (columns past it are padding: cost 0, length 0), ``limits`` (m,) raw."""
+    m, width = w.shape
+    real = np.arange(width)[None, :] < ky[:, None]
+    cost = np.where(real[None], cost, 0.0)
+    h = np.asarray(q_lens, dtype=np.float64)
+    lim = np.asarray(limits, dtype=np.float64)
+    alive = np.ones(m, bool)
     prev = None
-    for p in range(kx):
-        c = np.asarray(cost[p], dtype=np.float64)
+    for p in range(cost.shape[0]):
+        c = cost[p]
         if prev is None:
-            x = np.full(ky, np.inf)
-            x[0] = c[0] * max(h[0], w[0])
+            x = np.full((m, width), np.inf)
+            x[:, 0] = c[:, 0] * np.maximum(h[0], w[:, 0])
         else:
             x = prev + c * h[p]
-            x[1:] = np.minimum(x[1:], prev[:-1] + c[1:] * np.maximum(h[p], w[1:]))
-        steps = np.cumsum(c * w)
-        cur = steps + np.minimum.accumulate(x - steps)
-        if cur.min() > limit:
-            return np.inf
+            x[:, 1:] = np.minimum(x[:, 1:], prev[:, :-1] + c[:, 1:] * np.maximum(h[p], w[:, 1:]))
+        steps = np.cumsum(c * w, axis=1)
+        cur = steps + np.minimum.accumulate(x - steps, axis=1)
+        alive &= ~(np.where(real, cur, np.inf).min(axis=1) > lim)
+        if not alive.any():
+            return np.full(m, np.inf)
         prev = cur
-    return float(prev[ky - 1])
+    return np.where(alive, prev[np.arange(m), ky - 1], np.inf)
 
 
 def warm_up() -> None:
