@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ar.body.tflite_graph import TfliteGraphError, prune_outputs
 from retrieval.errors import StoryBeamError
 
 #: The checkout's vendored models (the one path ar.body builds from ``__file__``: ar cannot
@@ -110,6 +111,7 @@ class TfliteModel:
     input_index: int
     input_shape: tuple[int, ...]
     outputs: dict[str, int]
+    content: bytes = b""  #: the model as loaded (pruned); kept alive beside the interpreter reading it
 
     def run(self, x: np.ndarray, names: tuple[str, ...]) -> list[np.ndarray]:
         it = self.interpreter
@@ -121,7 +123,11 @@ class TfliteModel:
 def load_model(role: str, output_shapes: dict[str, tuple[int, ...]], model_dir: str | Path | None = None,
                num_threads: int = 1) -> TfliteModel:
     """Load the model of ``role``, check its one input and name its outputs by shape
-    (``output_shapes``: name -> expected shape); any mismatch is a :class:`PoseModelError`."""
+    (``output_shapes``: name -> expected shape); any mismatch is a :class:`PoseModelError`.
+
+    Outputs of other shapes are dropped before loading, with the operators that only feed
+    them (:func:`ar.body.tflite_graph.prune_outputs`): the landmark model's segmentation
+    head, a third of its inference time. The outputs read are unchanged bit for bit."""
     found = _interpreter_class()
     if found is None:
         raise PoseModelError("no TFLite interpreter: install ai-edge-litert (desktop: pip install ai-edge-litert) "
@@ -129,7 +135,11 @@ def load_model(role: str, output_shapes: dict[str, tuple[int, ...]], model_dir: 
     interpreter_class, _ = found
     path = model_path(role, model_dir)
     try:
-        it = interpreter_class(model_path=str(path), num_threads=int(num_threads))
+        content = prune_outputs(path.read_bytes(), list(output_shapes.values()))
+    except TfliteGraphError as exc:
+        raise PoseModelError(f"not a TFLite model StoryBeam can read ({exc})", path) from exc
+    try:
+        it = interpreter_class(model_content=content, num_threads=int(num_threads))
         it.allocate_tensors()
     except (ValueError, RuntimeError) as exc:
         raise PoseModelError(f"not a loadable TFLite model ({exc})", path) from exc
@@ -142,7 +152,7 @@ def load_model(role: str, output_shapes: dict[str, tuple[int, ...]], model_dir: 
         if shape not in by_shape:
             raise PoseModelError(f"no output of shape {shape} ({name}); outputs: {sorted(by_shape)}", path)
         outputs[name] = by_shape[shape]
-    return TfliteModel(path, it, int(inputs[0]["index"]), tuple(int(v) for v in inputs[0]["shape"]), outputs)
+    return TfliteModel(path, it, int(inputs[0]["index"]), tuple(int(v) for v in inputs[0]["shape"]), outputs, content)
 
 
 __all__ = ["DEFAULT_MODEL_DIR", "MODEL_FILES", "RUNTIMES", "PoseModelError", "pose_runtime_available", "runtime_name",
