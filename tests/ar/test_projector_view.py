@@ -106,3 +106,30 @@ def test_closed_loop_landing_error(rig, renderer):
         assert np.nanmedian(res.errors_mm) > 5.0
     finally:
         renderer.remove("landing_dots")
+
+
+def test_parts_at_one_distance_are_drawn_in_name_order_in_every_process(rig, renderer):
+    """Coplanar quads at one node pose: pyrender alone draws them in its node set's
+    order (object addresses: a different winner per process); ours by name, so the
+    first name's colour wins everywhere (GL_LESS keeps the first fragment at equal depth)."""
+    import pyrender
+    import trimesh
+
+    P, r = rig.projector, renderer
+    rng = np.random.default_rng(3)
+    names = [f"part{k:02d}" for k in range(24)]
+    colours = {n: rng.uniform(0.2, 1.0, 3) for n in names}
+    quad = trimesh.Trimesh(vertices=[[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], faces=[[0, 1, 2], [0, 2, 3]])
+    try:
+        for n in rng.permutation(names):
+            mat = pyrender.MetallicRoughnessMaterial(baseColorFactor=[*colours[n], 1.0])
+            r.add(n, pyrender.Mesh.from_trimesh(quad, material=mat, smooth=False))
+        r.set_view(look_at(np.array([0.0, 0.0, 3.0]), np.zeros(3), np.array([0.0, -1.0, 0.0])))
+        img = r.render(flat=True)
+        order = [node.name for node in r._renderer._renderer._sorted_mesh_nodes(r.scene)]
+        assert order == names
+        centre = img[P.height // 2, P.width // 2].astype(float) / 255
+        np.testing.assert_allclose(centre, colours["part00"], atol=2 / 255)
+    finally:
+        for n in names:
+            r.remove(n)
