@@ -264,8 +264,9 @@ class ActSearch:
         seen: set[str] = set()
         fps = self.index.fps
         n_rank = min(len(cands), RANK_FACTOR * k)
-        ranked = s.rerank(q, cands, n_rank)
-        if len({self.names[h.index] for h in ranked}) < k and n_rank < len(cands):
+        # numpy computes every candidate's DTW anyway: keep them all, so a crowded top needs no second sweep
+        ranked = s.rerank(q, cands, len(cands) if s.reranks_every_candidate else n_rank)
+        if len({self.names[h.index] for h in ranked[:n_rank]}) < k and len(ranked) < len(cands):
             ranked = s.rerank(q, cands, len(cands))  # a few clips' windows crowded the top: rank every candidate
         for h in ranked:
             name = self.names[h.index]

@@ -187,6 +187,12 @@ class StoryBeamSearcher:
                                  f"got {q.shape}")
         return self.identity_searcher().search(centre(q), k, exclude=exclude)
 
+    @property
+    def reranks_every_candidate(self) -> bool:
+        """Whether :meth:`rerank` computes every candidate's distance whatever ``k`` (the
+        numpy path: one sweep, no abandoning), so asking for all of them costs no more."""
+        return resolve_backend(self.backend) == "numpy"
+
     def rerank(self, q: np.ndarray, candidates: Sequence[tuple[int, float]], k: int) -> list[Hit]:
         """Exact float DTW of ``q`` to each (index, code distance) candidate, the ``k``
         nearest kept. Candidates come in code order, so the first few set a tight

@@ -196,3 +196,34 @@ def test_relative_features_per_window_and_per_query(tmp_path):
     (folder / "act.json").write_text(json.dumps(meta))
     with pytest.raises(IndexFormatError, match="rebuild"):
         ActSearch.load(folder)
+
+
+def test_the_tablet_path_answers_as_the_compiled_one_in_one_sweep(monkeypatch):
+    """On numpy (the tablet) the re-ranking sweeps every shortlisted window at once, so a
+    top crowded by one clip's windows is answered from that same sweep: the same clips at
+    the same distances as the compiled path, with one sweep per search."""
+    import retrieval.library.storybeam_search as sbs
+
+    sk = make_skeleton()
+    clips = []
+    for k, (label, kw) in enumerate(KINDS.items()):
+        for j in range(3):
+            m = make_motion(sk, frames=300, period=0.9 + 0.2 * j, phase=0.1 * j, **kw)
+            m.name = f"{label}{j}"
+            clips.append(clip_from_motion(m, m.name, label, 30.0, "frontal"))
+    search = ActSearch.from_clips(clips, dims=4)
+    jm = canonical_joint_map(sk)
+    m = make_motion(sk, frames=300, period=1.0, **KINDS["wild"])
+    sweeps = []
+    real = sbs.dtw_features_many
+    monkeypatch.setattr(sbs, "dtw_features_many", lambda *a, **kw: sweeps.append(1) or real(*a, **kw))
+    for start, k in ((0, 1), (60, 3), (150, 5), (190, 6)):
+        args = (positions(m)[start:start + 105], 30.0)
+        kw = dict(k=k, joint_map=jm, body_size=leg_length(sk, jm))
+        search.searcher.searcher.backend = "auto"
+        want = search.search_positions(*args, **kw)
+        search.searcher.searcher.backend = "numpy"  # the tablet: codes and re-ranking on numpy
+        sweeps.clear()
+        got = search.search_positions(*args, **kw)
+        assert [(h.name, h.distance, h.start_s) for h in got] == [(h.name, h.distance, h.start_s) for h in want]
+        assert len(got) == k and len(sweeps) == 1
