@@ -45,6 +45,14 @@ def test_segments_split_runs_evenly_and_cover_all():
             assert np.all(np.diff(b) >= 1) and np.diff(b).max() - np.diff(b).min() <= 1
 
 
+def test_compiled_segment_split_equals_numpy():
+    pytest.importorskip("numba")
+    from retrieval.search.fast import _segment_bounds
+    for n_runs in range(1, 70):
+        for n_seg in range(1, n_runs + 1):
+            assert np.array_equal(_segment_bounds(n_runs, n_seg), segment_split(n_runs, n_seg))
+
+
 def test_segment_cover_is_below_the_dtw_and_equals_range_cover_with_one_run_each(tables):
     full, diff = tables
     rng = np.random.default_rng(21)
@@ -92,6 +100,9 @@ def test_search_with_the_segment_filter_equals_brute_force_on_long_queries(table
     lib = [_slow_codes(rng, max_runs=60, max_run=10) for _ in range(90)]
     lib[7] = lib[3].copy()  # a tie
     qs = [_slow_codes(rng, max_runs=60, max_run=10) for _ in range(10)] + [lib[3], lib[50][2:-2]]
+    # queries long enough for the finer second level (SEGMENTS_FINE runs per segment)
+    from retrieval.search.fast import SEGMENTS, SEGMENTS_FINE
+    assert sum(len(run_length_encode(q)[0]) // SEGMENTS_FINE >= 2 * SEGMENTS for q in qs) >= 3
     for k in (1, 3):
         idx, dist = brute_force(qs, lib, full, k=k)
         res = FastSearcher(lib, diff).search(qs, k=k, parallel=False)
