@@ -72,9 +72,24 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
         return R, colmin
 
     @numba.njit(cache=True, nogil=True)
+    def _envelope_rows(RT, c_codes, rowmin):  # pragma: no cover - compiled
+        """``rowmin[u] = min over the candidate's distinct codes t of RT[t, u]``: each query
+        code's cheapest candidate code (LB_Keogh's whole-clip envelope on codes), one
+        contiguous row of the transposed table rows per candidate code, folded into every
+        query code's minimum at once (a vector minimum; the fast search does the same)."""
+        for u in range(rowmin.shape[0]):
+            rowmin[u] = np.inf
+        for s in range(c_codes.shape[0]):
+            r = RT[c_codes[s]]
+            for u in range(rowmin.shape[0]):
+                rowmin[u] = min(rowmin[u], r[u])
+
+    @numba.njit(cache=True, nogil=True)
     def _bounds(q_didx, q_dcnt, nx, R, colmin, lc, lco, ldv, ldc, ldo, out):  # pragma: no cover - compiled
         """Normalised max(LB_Kim, LB_Keogh both ways) of every candidate."""
         qd = q_dcnt.shape[0]
+        RT = np.ascontiguousarray(R.T)
+        rowmin = np.empty(qd)
         qf = q_didx[0]
         ql = q_didx[nx - 1]
         for c in range(lco.shape[0] - 1):
@@ -83,14 +98,10 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
             kim = R[qf, lc[b0]]
             if nx > 1 or ny > 1:
                 kim += R[ql, lc[b1 - 1]]
+            _envelope_rows(RT, ldv[ldo[c]:ldo[c + 1]], rowmin)
             rows = 0.0
             for u in range(qd):
-                m = np.inf
-                for s in range(ldo[c], ldo[c + 1]):
-                    d = R[u, ldv[s]]
-                    if d < m:
-                        m = d
-                rows += m * q_dcnt[u]
+                rows += rowmin[u] * q_dcnt[u]
             cols = 0.0
             for s in range(ldo[c], ldo[c + 1]):
                 cols += colmin[ldv[s]] * ldc[s]
@@ -170,6 +181,7 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
         rest_col = np.empty(maxlen)
         rest_row = np.empty(nx)
         rowmin = np.empty(q_dcnt.shape[0])
+        RT = np.ascontiguousarray(R.T)
         best_d = np.inf
         best_c = -1
         pruned = 0
@@ -185,13 +197,7 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
             norm = float(nx + ny)
             ub = np.inf if best_d == np.inf else best_d * norm * 1.000000001
             # cumulative LB_Keogh, rows still to come: per query frame its cheapest candidate code
-            for u in range(q_dcnt.shape[0]):
-                m = np.inf
-                for s in range(ldo[c], ldo[c + 1]):
-                    d = R[u, ldv[s]]
-                    if d < m:
-                        m = d
-                rowmin[u] = m
+            _envelope_rows(RT, ldv[ldo[c]:ldo[c + 1]], rowmin)
             acc = 0.0
             for i in range(nx - 1, -1, -1):
                 rest_row[i] = acc * 0.999999999

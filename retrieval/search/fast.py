@@ -264,23 +264,26 @@ if HAVE_NUMBA:
 
     @numba.njit(cache=True, nogil=True)
     def _lb_pair(q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
-                 F, absdiff, shift, mask, colmin, R, row_out):
-        """Normalised max(LB_Kim, envelope rows, envelope columns). ``R`` and ``colmin``
-        come from :func:`_query_rows`: the rows need every (query code, candidate code)
-        pair, the columns one load per distinct candidate code. Each query code's cheapest
-        candidate code cost goes to ``row_out`` (the exact search's envelopes reuse it)."""
-        inf = np.inf
+                 F, absdiff, shift, mask, colmin, RT, row_out):
+        """Normalised max(LB_Kim, envelope rows, envelope columns). ``RT`` (the query's
+        table rows transposed: ``RT[t, u] = R[u, t]``) and ``colmin`` come from
+        :func:`_query_rows`: the rows need every (query code, candidate code) pair — read
+        as one contiguous row of ``RT`` per candidate code, folded into the running
+        minima of every query code at once (a vector minimum) — the columns one load per
+        distinct candidate code. Each query code's cheapest candidate code cost goes to
+        ``row_out`` (float32, exact: the table's values are float32; the exact search's
+        envelopes reuse it)."""
+        nq = q_dc.shape[0]
         nv = c_dv.shape[0]
+        for u in range(nq):
+            row_out[u] = np.float32(np.inf)
+        for v in range(nv):
+            r = RT[c_dv[v]]
+            for u in range(nq):
+                row_out[u] = min(row_out[u], r[u])
         rows = 0.0
-        for u in range(q_dc.shape[0]):
-            m = inf
-            Ru = R[u]
-            for v in range(nv):
-                d = np.float64(Ru[c_dv[v]])
-                if d < m:
-                    m = d
-            row_out[u] = m
-            rows += m * q_dc[u]
+        for u in range(nq):
+            rows += np.float64(row_out[u]) * q_dc[u]
         cols = 0.0
         for v in range(nv):
             cols += colmin[c_dv[v]] * c_dc[v]
@@ -413,7 +416,7 @@ if HAVE_NUMBA:
             hi[i] = int(min(max(y, 0.0), ny - 1))
 
     @numba.njit(cache=True, nogil=True)
-    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, out, rowmins):
+    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, RT, colmin, out, rowmins):
         """Bounds (:func:`_lb_pair`) of every candidate; ``rowmins[c, u]``: query code u's
         cheapest code in candidate c."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
@@ -423,10 +426,10 @@ if HAVE_NUMBA:
             b0, b1 = lco[c], lco[c + 1]
             out[c] = _lb_pair(qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
                               ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
-                              F, absdiff, shift, mask, colmin, R, rowmins[c])
+                              F, absdiff, shift, mask, colmin, RT, rowmins[c])
 
     @numba.njit(cache=True, nogil=True, parallel=True)
-    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, R, colmin, out, rowmins):
+    def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, RT, colmin, out, rowmins):
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
@@ -434,7 +437,7 @@ if HAVE_NUMBA:
             b0, b1 = lco[c], lco[c + 1]
             out[c] = _lb_pair(qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
                               ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
-                              F, absdiff, shift, mask, colmin, R, rowmins[c])
+                              F, absdiff, shift, mask, colmin, RT, rowmins[c])
 
     @numba.njit(cache=True, nogil=True)
     def _segment_bounds(nruns, nseg):
@@ -649,7 +652,7 @@ if HAVE_NUMBA:
         lbs = np.empty(ncand)
         R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
         rowmins = np.empty((ncand, Q[8][qi + 1] - Q[8][qi]), np.float32)
-        _lbs_serial(qi, Q, L, F, absdiff, shift, mask, R, colmin, lbs, rowmins)
+        _lbs_serial(qi, Q, L, F, absdiff, shift, mask, np.ascontiguousarray(R.T), colmin, lbs, rowmins)
         _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi],
                 out_dist[qi], stats[qi], True, range_bound)
 
@@ -801,9 +804,11 @@ class FastSearcher:
             lbs[:] = 0.0
             rowmins[:] = 0.0  # no limit, so nothing is cut: the envelopes' values do not matter
         elif parallel:
-            _lbs_parallel(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
+            _lbs_parallel(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, np.ascontiguousarray(R.T), colmin,
+                          lbs, rowmins)
         else:
-            _lbs_serial(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, R, colmin, lbs, rowmins)
+            _lbs_serial(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, np.ascontiguousarray(R.T), colmin,
+                        lbs, rowmins)
         t2 = clock()
         _refine(qi, Q, self._L, self._LV, t.F, t.absdiff, self._shift, self._mask, R, lbs, rowmins, colmin, k, use_rle,
                 band, out_idx, out_dist, stats, self.use_bounds, self.range_bound)
