@@ -23,10 +23,14 @@ under DTW", KDD 2012, adapted to whole-clip 1-NN with no warping window; Herrman
    * LB_Keogh(candidate | query envelope): the same with the roles swapped, one load per
      distinct candidate code (``colmin``).
 
-   The bound is the maximum of the three, divided by ``x + y``.
-3. **Order.** Candidates sorted by bound (stable: ties keep library order); the loop stops
-   at the first bound above the best distance so far (every later bound is at least as
-   large).
+   The bound is the maximum of the three, divided by ``x + y``. As the UCR suite cascades
+   its bounds cheapest first, the two that cost one load per distinct candidate code
+   (LB_Kim, LB_Keogh(candidate | query envelope)) are computed for every candidate, and
+   LB_Keogh(query | candidate envelope), which costs one load per (query code, candidate
+   code) pair, only for the candidates that reach the loop (the fast search does the same).
+3. **Order.** Candidates sorted by the cheap bound (stable: ties keep library order); the
+   loop stops at the first cheap bound above the best distance so far (every later one
+   is at least as large), and skips a candidate whose rows' bound is above it.
 4. **Early-abandoning, pruned DTW (EAPrunedDTW-style).** Each surviving candidate's DP runs
    row by row with the upper bound ``UB = best so far × (x + y)``; a cell whose value plus
    the cumulative LB_Keogh of the rows still to come, or of the columns still to come,
@@ -83,6 +87,22 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
             r = RT[c_codes[s]]
             for u in range(rowmin.shape[0]):
                 rowmin[u] = min(rowmin[u], r[u])
+
+    @numba.njit(cache=True, nogil=True)
+    def _cheap_bounds(q_didx, nx, R, colmin, lc, lco, ldv, ldc, ldo, out):  # pragma: no cover - compiled
+        """Normalised max(LB_Kim, LB_Keogh(candidate | query envelope)) of every candidate."""
+        qf = q_didx[0]
+        ql = q_didx[nx - 1]
+        for c in range(lco.shape[0] - 1):
+            b0, b1 = lco[c], lco[c + 1]
+            ny = b1 - b0
+            kim = R[qf, lc[b0]]
+            if nx > 1 or ny > 1:
+                kim += R[ql, lc[b1 - 1]]
+            cols = 0.0
+            for s in range(ldo[c], ldo[c + 1]):
+                cols += colmin[ldv[s]] * ldc[s]
+            out[c] = (kim if kim > cols else cols) / (nx + ny)
 
     @numba.njit(cache=True, nogil=True)
     def _bounds(q_didx, q_dcnt, nx, R, colmin, lc, lco, ldv, ldc, ldo, out):  # pragma: no cover - compiled
@@ -190,14 +210,21 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
         for pos in range(ncand):
             c = order[pos]
             if lbs[c] * 0.999999999 > best_d:
-                pruned = ncand - pos
+                pruned += ncand - pos
                 break
             b0, b1 = lco[c], lco[c + 1]
             ny = b1 - b0
             norm = float(nx + ny)
             ub = np.inf if best_d == np.inf else best_d * norm * 1.000000001
-            # cumulative LB_Keogh, rows still to come: per query frame its cheapest candidate code
+            # LB_Keogh(query | candidate envelope), the cascade's second stage, and from the
+            # same minima the cumulative LB_Keogh of the rows still to come
             _envelope_rows(RT, ldv[ldo[c]:ldo[c + 1]], rowmin)
+            rows = 0.0
+            for u in range(q_dcnt.shape[0]):
+                rows += rowmin[u] * q_dcnt[u]
+            if rows / norm * 0.999999999 > best_d:
+                pruned += 1
+                continue
             acc = 0.0
             for i in range(nx - 1, -1, -1):
                 rest_row[i] = acc * 0.999999999
@@ -289,7 +316,7 @@ class UCRRival:
         """The nearest clip and its normalised distance (the seed's, bit for bit)."""
         q_didx, q_dcnt, R, colmin = self._prepare(query)
         lbs = np.empty(len(self))
-        _bounds(q_didx, q_dcnt, len(q_didx), R, colmin, self.lrow, self.lco, self.ldv, self.ldc, self.ldo, lbs)
+        _cheap_bounds(q_didx, len(q_didx), R, colmin, self.lrow, self.lco, self.ldv, self.ldc, self.ldo, lbs)
         stats = np.zeros(4, np.int64)
         c, d = _search(q_didx, q_dcnt, R, colmin, lbs, self.lrow, self.lco, self.ldv, self.ldc, self.ldo,
                        self.lrow, stats)

@@ -7,9 +7,14 @@ same neighbours, same distances bit for bit, ties broken by the lower library in
 
 1. **compact table** — the 20 KiB :class:`~retrieval.codes.tables.DiffTable` instead of
    the 64 MiB table (identical values);
-2. **lower bounds** (:mod:`retrieval.dtw.lower_bounds`) for every candidate, then candidates
-   in increasing bound order; a candidate whose bound exceeds the current k-th best
-   distance is *pruned* (and so are all after it);
+2. **lower bounds** (:mod:`retrieval.dtw.lower_bounds`), cascaded cheapest first: LB_Kim
+   and the columns' envelope (one load per distinct candidate code) for every candidate,
+   candidates in increasing order of that bound, the loop stopping at the first one above
+   the current k-th best distance (all after it are *pruned*); the rows' envelope (one
+   load per pair of query and candidate codes, read as contiguous transposed rows and
+   folded into every query code's minimum at once) only for the candidates the loop
+   reaches, each pruned when it exceeds the k-th best. Searching a single query over all
+   cores computes all three for every candidate in a ``prange`` and sorts by their maximum;
 3. **range-cover bound** (:mod:`retrieval.dtw.range_bound`, run-length exact mode) — for a
    candidate that survives its envelope bound, an order-aware bound over runs,
    O(runs × runs): the candidate is rejected without a DTW when it exceeds the k-th best,
@@ -24,7 +29,8 @@ same neighbours, same distances bit for bit, ties broken by the lower library in
 4. **run-length DTW** (:mod:`retrieval.dtw.runlength`) — exact block DP over runs of equal
    codes, used when :func:`~retrieval.dtw.runlength.rle_is_exact` holds (plain DP otherwise);
 5. **parallelism** — a batch of queries runs in a numba ``prange`` (one query per
-   thread); a single query computes its bounds in a ``prange`` over candidates.
+   thread, each with the cascade); a single query computes its bounds in a ``prange``
+   over candidates.
 
 ``backend="numpy"`` (Android: no numba) runs the same bounds and pruning with the
 vectorised anti-diagonal DP of :mod:`retrieval.dtw.kernels`: same neighbours and distances,
@@ -263,38 +269,44 @@ if HAVE_NUMBA:
         return R, colmin
 
     @numba.njit(cache=True, nogil=True)
-    def _lb_pair(q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
-                 F, absdiff, shift, mask, colmin, RT, row_out):
-        """Normalised max(LB_Kim, envelope rows, envelope columns). ``RT`` (the query's
-        table rows transposed: ``RT[t, u] = R[u, t]``) and ``colmin`` come from
-        :func:`_query_rows`: the rows need every (query code, candidate code) pair — read
-        as one contiguous row of ``RT`` per candidate code, folded into the running
-        minima of every query code at once (a vector minimum) — the columns one load per
-        distinct candidate code. Each query code's cheapest candidate code cost goes to
-        ``row_out`` (float32, exact: the table's values are float32; the exact search's
-        envelopes reuse it)."""
+    def _envelope_rows(q_dc, c_dv, RT, row_out):
+        """Raw envelope bound of the rows: every query code's cheapest candidate code
+        (``row_out[u]``, float32, exact: the table's values are float32) times its count,
+        summed in query-code order. ``RT`` (the query's table rows transposed, ``RT[t, u]
+        = R[u, t]``) gives one contiguous row per candidate code, folded into the minima
+        of every query code at once (a vector minimum)."""
         nq = q_dc.shape[0]
-        nv = c_dv.shape[0]
         for u in range(nq):
             row_out[u] = np.float32(np.inf)
-        for v in range(nv):
+        for v in range(c_dv.shape[0]):
             r = RT[c_dv[v]]
             for u in range(nq):
                 row_out[u] = min(row_out[u], r[u])
         rows = 0.0
         for u in range(nq):
             rows += np.float64(row_out[u]) * q_dc[u]
+        return rows
+
+    @numba.njit(cache=True, nogil=True)
+    def _lb_cheap(nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last, F, absdiff, shift, mask, colmin):
+        """Raw max(LB_Kim, envelope columns): one load per distinct candidate code."""
         cols = 0.0
-        for v in range(nv):
+        for v in range(c_dv.shape[0]):
             cols += colmin[c_dv[v]] * c_dc[v]
         kim = diff_cost(q_first, c_first, F, absdiff, shift, mask)
         if nx > 1 or ny > 1:
             kim += diff_cost(q_last, c_last, F, absdiff, shift, mask)
-        best = rows
-        if cols > best:
-            best = cols
-        if kim > best:
-            best = kim
+        return cols if cols > kim else kim
+
+    @numba.njit(cache=True, nogil=True)
+    def _lb_pair(q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
+                 F, absdiff, shift, mask, colmin, RT, row_out):
+        """Normalised max(LB_Kim, envelope rows, envelope columns): :func:`_envelope_rows`
+        (``row_out``: each query code's cheapest candidate code, which the exact search's
+        envelopes reuse) and :func:`_lb_cheap`."""
+        rows = _envelope_rows(q_dc, c_dv, RT, row_out)
+        cheap = _lb_cheap(nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last, F, absdiff, shift, mask, colmin)
+        best = rows if rows > cheap else cheap
         return best / (nx + ny)
 
     @numba.njit(cache=True, nogil=True)
@@ -416,17 +428,15 @@ if HAVE_NUMBA:
             hi[i] = int(min(max(y, 0.0), ny - 1))
 
     @numba.njit(cache=True, nogil=True)
-    def _lbs_serial(qi, Q, L, F, absdiff, shift, mask, RT, colmin, out, rowmins):
-        """Bounds (:func:`_lb_pair`) of every candidate; ``rowmins[c, u]``: query code u's
-        cheapest code in candidate c."""
+    def _lbs_cheap(qi, Q, L, F, absdiff, shift, mask, colmin, out):
+        """Normalised :func:`_lb_cheap` of every candidate (the lazy cascade's first stage)."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
         (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
         a0, a1 = qco[qi], qco[qi + 1]
         for c in range(lco.shape[0] - 1):
             b0, b1 = lco[c], lco[c + 1]
-            out[c] = _lb_pair(qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
-                              ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
-                              F, absdiff, shift, mask, colmin, RT, rowmins[c])
+            out[c] = _lb_cheap(a1 - a0, qc[a0], qc[a1 - 1], ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0,
+                               lc[b0], lc[b1 - 1], F, absdiff, shift, mask, colmin) / (a1 - a0 + b1 - b0)
 
     @numba.njit(cache=True, nogil=True, parallel=True)
     def _lbs_parallel(qi, Q, L, F, absdiff, shift, mask, RT, colmin, out, rowmins):
@@ -449,8 +459,8 @@ if HAVE_NUMBA:
         return b
 
     @numba.njit(cache=True, nogil=True)
-    def _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx, out_dist,
-                stats, abandon=True, range_bound=False):
+    def _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, RT, lbs, rowmins, colmin, k, use_rle, band, out_idx,
+                out_dist, stats, abandon, range_bound, lazy):
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
         (distance, then index). Writes out_idx/out_dist (k) and stats (5). ``LV``: the
         library's codes and run values as vocabulary indices (columns of ``R``)."""
@@ -492,6 +502,7 @@ if HAVE_NUMBA:
                 row_didx[i] = qrd[r0 + p]
                 i += 1
         rest_col = np.empty(big + 2)
+        rm_buf = np.empty(qdo[qi + 1] - qdo[qi], np.float32)
         # without exact arithmetic the bound sums may round differently from the DP: shrink them
         safety = 1.0 if use_rle >= 1 else 1.0 - 1e-9
         pruned = 0
@@ -557,7 +568,15 @@ if HAVE_NUMBA:
             b0, b1 = lco[c], lco[c + 1]
             ny = b1 - b0
             norm = float(nx + ny)
-            rm = rowmins[c]  # per distinct query code: its cheapest code in this candidate
+            if lazy:
+                # the cascade's second stage: the rows' envelope, only for candidates the
+                # cheap bound kept (lbs holds max(LB_Kim, columns) here)
+                rm = rm_buf
+                if _envelope_rows(qdc[qdo[qi]:qdo[qi + 1]], ldv[ldo[c]:ldo[c + 1]], RT, rm) / norm > thr:
+                    pruned += 1
+                    continue
+            else:
+                rm = rowmins[c]  # per distinct query code: its cheapest code in this candidate
             if not use_range:  # the envelope of the rows still to come, per run
                 acc = 0.0
                 for p in range(nruns - 1, -1, -1):
@@ -651,10 +670,10 @@ if HAVE_NUMBA:
         ncand = L[1].shape[0] - 1
         lbs = np.empty(ncand)
         R, colmin = _query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
-        rowmins = np.empty((ncand, Q[8][qi + 1] - Q[8][qi]), np.float32)
-        _lbs_serial(qi, Q, L, F, absdiff, shift, mask, np.ascontiguousarray(R.T), colmin, lbs, rowmins)
-        _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, lbs, rowmins, colmin, k, use_rle, band, out_idx[qi],
-                out_dist[qi], stats[qi], True, range_bound)
+        _lbs_cheap(qi, Q, L, F, absdiff, shift, mask, colmin, lbs)
+        _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, np.ascontiguousarray(R.T), lbs,
+                np.empty((0, 0), np.float32), colmin, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi], True,
+                range_bound, True)
 
     @numba.njit(cache=True, nogil=True, parallel=True)
     def _search_batch(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):
@@ -799,19 +818,20 @@ class FastSearcher:
                                 t.F, t.absdiff, self._shift, self._mask)
         t1 = clock()
         lbs = np.empty(len(self.library))
-        rowmins = np.empty((len(self.library), packed.dist_off[qi + 1] - packed.dist_off[qi]), np.float32)
+        RT = np.ascontiguousarray(R.T)
+        lazy = self.use_bounds and not parallel  # one thread: the lazy cascade, as the serial search
+        nqd = packed.dist_off[qi + 1] - packed.dist_off[qi]
+        rowmins = np.empty((0 if lazy else len(self.library), nqd), np.float32)
         if not self.use_bounds:
             lbs[:] = 0.0
             rowmins[:] = 0.0  # no limit, so nothing is cut: the envelopes' values do not matter
-        elif parallel:
-            _lbs_parallel(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, np.ascontiguousarray(R.T), colmin,
-                          lbs, rowmins)
+        elif lazy:
+            _lbs_cheap(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, colmin, lbs)
         else:
-            _lbs_serial(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, np.ascontiguousarray(R.T), colmin,
-                        lbs, rowmins)
+            _lbs_parallel(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, RT, colmin, lbs, rowmins)
         t2 = clock()
-        _refine(qi, Q, self._L, self._LV, t.F, t.absdiff, self._shift, self._mask, R, lbs, rowmins, colmin, k, use_rle,
-                band, out_idx, out_dist, stats, self.use_bounds, self.range_bound)
+        _refine(qi, Q, self._L, self._LV, t.F, t.absdiff, self._shift, self._mask, R, RT, lbs, rowmins, colmin, k,
+                use_rle, band, out_idx, out_dist, stats, self.use_bounds, self.range_bound, lazy)
         if times is not None:
             t3 = clock()
             for key, dt in (("rows", t1 - t0), ("bounds", t2 - t1), ("loop", t3 - t2)):
