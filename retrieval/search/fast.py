@@ -502,7 +502,6 @@ if HAVE_NUMBA:
                 row_didx[i] = qrd[r0 + p]
                 i += 1
         rest_col = np.empty(big + 2)
-        rm_buf = np.empty(qdo[qi + 1] - qdo[qi], np.float32)
         # without exact arithmetic the bound sums may round differently from the DP: shrink them
         safety = 1.0 if use_rle >= 1 else 1.0 - 1e-9
         pruned = 0
@@ -555,28 +554,57 @@ if HAVE_NUMBA:
             cap = ubs[k - 1]
         if not abandon:
             cap = inf
-        for pos in range(ncand):
-            c = order[pos]
+        n_loop = ncand
+        loop_order = order
+        loop_lb = np.empty(0)
+        sel_rm = np.empty((0, 0), np.float32)
+        if lazy:
+            # the cascade's second stage: lbs holds max(LB_Kim, columns); the rows' envelope
+            # only for the candidates whose cheap bound is within the cap (the others
+            # cannot enter the k best), then those in order of the full bound
+            nqd = qdo[qi + 1] - qdo[qi]
+            n_loop = 0
+            while n_loop < ncand and lbs[order[n_loop]] <= cap:
+                n_loop += 1
+            pruned += ncand - n_loop
+            full = np.empty(n_loop)
+            rows_sel = np.empty((n_loop, nqd), np.float32)
+            for s in range(n_loop):
+                c = order[s]
+                r = _envelope_rows(qdc[qdo[qi]:qdo[qi + 1]], ldv[ldo[c]:ldo[c + 1]], RT, rows_sel[s])
+                r /= float(nx + lco[c + 1] - lco[c])
+                full[s] = r if r > lbs[c] else lbs[c]
+            sub = np.argsort(full, kind="mergesort")
+            loop_order = order[:n_loop][sub]
+            loop_lb = full[sub]
+            sel_rm = rows_sel[sub]
+            # the cap again from the best candidates by the full bound (usually nearer)
+            if cap < inf and n_loop >= k:
+                m_ub = k + 2 if k + 2 < n_loop else n_loop
+                ubs = np.empty(m_ub)
+                for pos in range(m_ub):
+                    c = loop_order[pos]
+                    ubs[pos] = _runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
+                                             F, absdiff, shift, mask, np.zeros(nruns), inf, 1.0,
+                                             row_prev, row_next) / float(nx + lco[c + 1] - lco[c])
+                ubs.sort()
+                if ubs[k - 1] < cap:
+                    cap = ubs[k - 1]
+        for pos in range(n_loop):
+            c = loop_order[pos]
             thr = out_dist[k - 1]
             if cap < thr:
                 thr = cap
             if not abandon:
                 thr = inf  # brute force: every DTW runs to the end
-            if lbs[c] > thr:
-                pruned += ncand - pos
+            if (loop_lb[pos] if lazy else lbs[c]) > thr:
+                pruned += n_loop - pos
                 break
             b0, b1 = lco[c], lco[c + 1]
             ny = b1 - b0
             norm = float(nx + ny)
-            if lazy:
-                # the cascade's second stage: the rows' envelope, only for candidates the
-                # cheap bound kept (lbs holds max(LB_Kim, columns) here)
-                rm = rm_buf
-                if _envelope_rows(qdc[qdo[qi]:qdo[qi + 1]], ldv[ldo[c]:ldo[c + 1]], RT, rm) / norm > thr:
-                    pruned += 1
-                    continue
-            else:
-                rm = rowmins[c]  # per distinct query code: its cheapest code in this candidate
+            # per distinct query code: its cheapest code in this candidate
+            rm = sel_rm[pos] if lazy else rowmins[c]
             if not use_range:  # the envelope of the rows still to come, per run
                 acc = 0.0
                 for p in range(nruns - 1, -1, -1):

@@ -56,6 +56,13 @@ def test_bench_retrieval_quick_emits_the_json_keys(tmp_path, monkeypatch, capsys
         for m in res[part]["methods"].values():
             assert m["queries"] == res["latency_queries"] and 0 < m["ms_median"] <= m["ms_p95"]
     assert res["vs_ucr_codes_median"] > 0 and res["protocol_vs_ucr_codes_total"] > 0
+    # the rival in both strategies, "the rival" being the faster (lower total) on each data set
+    for part, where in (("protocol", res["protocol_interleaved"]["methods"]), ("library", res["library"]["methods"]),
+                        ("big_library", res["big_library"]["methods"])):
+        strategy = res["rival_strategy"][part]
+        assert strategy in ("cascade", "sorted")
+        totals = {s: where[f"ucr_rival_{s}"]["ms_total"] for s in ("cascade", "sorted")}
+        assert where["ucr_rival"] == where[f"ucr_rival_{strategy}"] and totals[strategy] == min(totals.values())
     assert res["table_bytes"] <= 64 * 1024
     assert res["library_clips"] >= 300
     assert res["big_library_clips"] >= 3 * res["library_clips"] // 2

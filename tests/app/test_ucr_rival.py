@@ -27,7 +27,8 @@ def tables():
     return full_table(c), DiffTable.from_ratios(c)
 
 
-def test_rival_equals_brute_force_on_random_codes_with_ties(tables):
+@pytest.mark.parametrize("strategy", ["cascade", "sorted"])
+def test_rival_equals_brute_force_on_random_codes_with_ties(tables, strategy):
     full, diff = tables
     rng = np.random.default_rng(7)
     for trial in range(6):
@@ -36,7 +37,7 @@ def test_rival_equals_brute_force_on_random_codes_with_ties(tables):
         lib[11] = lib[11][:1]  # a one-frame clip
         qs = [_slow_codes(rng) for _ in range(8)] + [lib[4], lib[11]]
         idx, dist = brute_force(qs, lib, full, k=1)
-        rival = UCRRival(lib, diff)
+        rival = UCRRival(lib, diff, strategy)
         for q, i, d in zip(qs, idx[:, 0], dist[:, 0]):
             r = rival.search(q)
             assert (r.index, r.distance) == (i, d)
@@ -56,7 +57,8 @@ def test_rival_bounds_never_exceed_the_seed_dtw(tables):
         assert np.any(lbs > 0)
 
 
-def test_rival_prunes_and_agrees_with_the_fast_search_on_quantised_walks():
+@pytest.mark.parametrize("strategy", ["cascade", "sorted"])
+def test_rival_prunes_and_agrees_with_the_fast_search_on_quantised_walks(strategy):
     rng = np.random.default_rng(4)
     walk = np.cumsum(rng.normal(size=(6000, 17)), axis=0) * 0.1
     q = Quantizer.fit(walk, 6)
@@ -64,7 +66,7 @@ def test_rival_prunes_and_agrees_with_the_fast_search_on_quantised_walks():
     codes = [q.encode(walk[s:s + int(rng.integers(20, 120))]) for s in rng.integers(0, 5800, 150)]
     queries, lib = codes[:10], codes[10:]
     idx, dist = brute_force(queries, lib, full, k=1)
-    rival = UCRRival(lib, diff)
+    rival = UCRRival(lib, diff, strategy)
     fast = FastSearcher(lib, diff).search(queries, k=1, parallel=False)
     pruned = abandoned = 0
     for qi, a in enumerate(queries):
@@ -76,7 +78,8 @@ def test_rival_prunes_and_agrees_with_the_fast_search_on_quantised_walks():
     assert pruned > 0.3 * len(queries) * len(lib) and abandoned > 0
 
 
-def test_rival_on_real_cmu_clips(cmu_dir):
+@pytest.mark.parametrize("strategy", ["cascade", "sorted"])
+def test_rival_on_real_cmu_clips(cmu_dir, strategy):
     from retrieval.experiment import stack_frames, stratified_subset
     from retrieval.library import load_dataset, read_labels
 
@@ -86,7 +89,7 @@ def test_rival_on_real_cmu_clips(cmu_dir):
     codes = [q.encode(c.features) for c in clips]
     queries, lib = codes[:8], codes[8:]
     idx, dist = brute_force(queries, lib, full, k=1)
-    rival = UCRRival(lib, diff)
+    rival = UCRRival(lib, diff, strategy)
     for qi, a in enumerate(queries):
         assert np.all(rival.bounds(a) <= np.array([dtw_codes(a, b, full) for b in lib]))
         r = rival.search(a)
@@ -101,6 +104,8 @@ def test_bad_input_is_a_rival_error(tables):
         UCRRival([np.array([1, 2]), np.array([5000])], diff)
     with pytest.raises(RivalError, match="query codes"):
         UCRRival([np.array([1, 2])], diff).search(np.array([], np.int64))
+    with pytest.raises(RivalError, match="strategy 'fastest'"):
+        UCRRival([np.array([1, 2])], diff, "fastest")
 
 
 def test_float_rival_bounds_and_answers_equal_brute_force():
