@@ -835,8 +835,9 @@ class FastSearcher:
     def _search_one(self, packed: PackedCodes, Q: tuple, qi: int, k: int, use_rle: int, band: int,
                     out_idx: np.ndarray, out_dist: np.ndarray, stats: np.ndarray, parallel: bool,
                     times: dict[str, float] | None = None) -> None:
-        """One query through the compiled kernels: its table rows, the envelope bounds of
-        every candidate, then the candidate loop (bound order, range-cover rejection,
+        """One query through the compiled kernels: its table rows, the bounds (on one
+        thread the cascade's cheap bounds of every candidate; over all cores all three in
+        a ``prange``), then the candidate loop (bound order, range-cover rejection,
         early-abandoning DP). With ``times``, each stage's seconds are added to it under
         :data:`STAGES` (``rows``, ``bounds``, ``loop``)."""
         t = self.table
@@ -868,8 +869,10 @@ class FastSearcher:
     def profile_stages(self, query: np.ndarray, k: int = 1) -> tuple[SearchResult, dict[str, float]]:
         """Search one query serially on the compiled path with each stage timed:
         ``(result, {"pack", "rows", "bounds", "loop"} seconds)`` -- packing the query, its
-        table rows, the envelope bounds, the candidate loop. The answer is the same as
-        :meth:`search`'s. Needs the numba back-end (the numpy path has other stages)."""
+        table rows, the cheap bounds of every candidate (LB_Kim and the columns' envelope),
+        the candidate loop (with the rows' envelope of the candidates within the cap,
+        module docstring). The answer is the same as :meth:`search`'s. Needs the numba
+        back-end (the numpy path has other stages)."""
         if self.backend != "numba":
             raise DTWError("profile_stages times the compiled kernels: it needs the numba back-end")
         if k < 1:
