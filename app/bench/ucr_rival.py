@@ -196,6 +196,24 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
         return prev[ny - 1]
 
     @numba.njit(cache=True, nogil=True)
+    def _abandoning_dtw(c, q_didx, R, colmin, lco, lrow, rowmin, ub, rest_row, rest_col, prev,
+                        cur):  # pragma: no cover - compiled
+        """Candidate ``c``'s early-abandoning DTW within ``ub`` (raw; inf when abandoned),
+        pruned by the cumulative LB_Keogh of the rows still to come (from ``rowmin``, each
+        query code's cheapest candidate code, :func:`_envelope_rows`) and of the columns."""
+        nx = q_didx.shape[0]
+        b0, b1 = lco[c], lco[c + 1]
+        acc = 0.0
+        for i in range(nx - 1, -1, -1):
+            rest_row[i] = acc * 0.999999999
+            acc += rowmin[q_didx[i]]
+        acc = 0.0
+        for j in range(b1 - b0 - 1, -1, -1):
+            rest_col[j] = acc * 0.999999999
+            acc += colmin[lrow[b0 + j]]
+        return _eap_dtw(q_didx, lrow[b0:b1], R, rest_row, rest_col, ub, prev, cur)
+
+    @numba.njit(cache=True, nogil=True)
     def _search_cascade(q_didx, q_dcnt, R, colmin, lbs, lc, lco, ldv, ldc, ldo, lrow, stats):  # pragma: no cover
         """The "cascade" strategy: candidates in order of the cheap bound, stop at the first
         one above the best, the rows' envelope for each candidate reached (skipped when
@@ -224,9 +242,7 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
             if lbs[c] * 0.999999999 > best_d:
                 pruned += ncand - pos
                 break
-            b0, b1 = lco[c], lco[c + 1]
-            ny = b1 - b0
-            norm = float(nx + ny)
+            norm = float(nx + lco[c + 1] - lco[c])
             ub = np.inf if best_d == np.inf else best_d * norm * 1.000000001
             # LB_Keogh(query | candidate envelope), the cascade's second stage, and from the
             # same minima the cumulative LB_Keogh of the rows still to come
@@ -237,15 +253,7 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
             if rows / norm * 0.999999999 > best_d:
                 pruned += 1
                 continue
-            acc = 0.0
-            for i in range(nx - 1, -1, -1):
-                rest_row[i] = acc * 0.999999999
-                acc += rowmin[q_didx[i]]
-            acc = 0.0
-            for j in range(ny - 1, -1, -1):
-                rest_col[j] = acc * 0.999999999
-                acc += colmin[lrow[b0 + j]]
-            raw = _eap_dtw(q_didx, lrow[b0:b1], R, rest_row, rest_col, ub, prev, cur)
+            raw = _abandoning_dtw(c, q_didx, R, colmin, lco, lrow, rowmin, ub, rest_row, rest_col, prev, cur)
             if raw == np.inf:
                 abandoned += 1
                 continue
@@ -288,21 +296,11 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
             if lbs[c] * 0.999999999 > best_d:
                 pruned = ncand - pos
                 break
-            b0, b1 = lco[c], lco[c + 1]
-            ny = b1 - b0
-            norm = float(nx + ny)
+            norm = float(nx + lco[c + 1] - lco[c])
             ub = np.inf if best_d == np.inf else best_d * norm * 1.000000001
             # cumulative LB_Keogh, rows still to come: per query frame its cheapest candidate code
             _envelope_rows(RT, ldv[ldo[c]:ldo[c + 1]], rowmin)
-            acc = 0.0
-            for i in range(nx - 1, -1, -1):
-                rest_row[i] = acc * 0.999999999
-                acc += rowmin[q_didx[i]]
-            acc = 0.0
-            for j in range(ny - 1, -1, -1):
-                rest_col[j] = acc * 0.999999999
-                acc += colmin[lrow[b0 + j]]
-            raw = _eap_dtw(q_didx, lrow[b0:b1], R, rest_row, rest_col, ub, prev, cur)
+            raw = _abandoning_dtw(c, q_didx, R, colmin, lco, lrow, rowmin, ub, rest_row, rest_col, prev, cur)
             if raw == np.inf:
                 abandoned += 1
                 continue

@@ -85,17 +85,21 @@ def sha256_of(path: Path) -> str:
 def model_path(role: str, model_dir: str | Path | None = None, check: bool = True) -> Path:
     """The file of ``role`` (``"detector"`` / ``"landmarks"``) in ``model_dir`` (default
     :data:`DEFAULT_MODEL_DIR`), its SHA-256 checked when ``check``."""
-    name, digest = MODEL_FILES[role]
+    name = MODEL_FILES[role][0]
     path = Path(model_dir if model_dir is not None else DEFAULT_MODEL_DIR) / name
     if not path.is_file():
         raise PoseModelError("pose model file not found (copy it from the mediapipe 0.10.21 wheel: "
                              "see assets/models/blazepose/README.md)", path)
     if check:
-        got = sha256_of(path)
-        if got != digest:
-            raise PoseModelError(f"pose model file altered: sha256 {got[:12]}..., expected {digest[:12]}... "
-                                 f"(mediapipe 0.10.21's {name})", path)
+        _check_digest(role, path, sha256_of(path))
     return path
+
+
+def _check_digest(role: str, path: Path, got: str) -> None:
+    name, digest = MODEL_FILES[role]
+    if got != digest:
+        raise PoseModelError(f"pose model file altered: sha256 {got[:12]}..., expected {digest[:12]}... "
+                             f"(mediapipe 0.10.21's {name})", path)
 
 
 @dataclass
@@ -133,9 +137,11 @@ def load_model(role: str, output_shapes: dict[str, tuple[int, ...]], model_dir: 
         raise PoseModelError("no TFLite interpreter: install ai-edge-litert (desktop: pip install ai-edge-litert) "
                              "or tflite-runtime (the tablet's python-for-android recipe)")
     interpreter_class, _ = found
-    path = model_path(role, model_dir)
+    path = model_path(role, model_dir, check=False)
+    raw = path.read_bytes()  # read once: the bytes hashed are the bytes loaded
+    _check_digest(role, path, hashlib.sha256(raw).hexdigest())
     try:
-        content = prune_outputs(path.read_bytes(), list(output_shapes.values()))
+        content = prune_outputs(raw, list(output_shapes.values()))
     except TfliteGraphError as exc:
         raise PoseModelError(f"not a TFLite model StoryBeam can read ({exc})", path) from exc
     try:

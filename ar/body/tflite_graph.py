@@ -47,7 +47,7 @@ class TfliteGraphError(StoryBeamError):
 class _Reader:
     """Bounds-checked reads of a FlatBuffer (little-endian)."""
 
-    def __init__(self, buf: bytearray):
+    def __init__(self, buf: bytes | bytearray):
         self.buf = buf
 
     def _check(self, pos: int, size: int) -> None:
@@ -109,7 +109,7 @@ def _subgraph(reader: _Reader) -> int:
 
 def output_shapes(model: bytes) -> list[tuple[int, ...]]:
     """The shape of each output of the model's subgraph, in order."""
-    reader = _Reader(bytearray(model))
+    reader = _Reader(model)  # read only: no copy
     sg = _subgraph(reader)
     tensors = reader.tables(sg, _SUBGRAPH_TENSORS)
     return [tuple(reader.ints(tensors[i], _TENSOR_SHAPE)) for i in reader.ints(sg, _SUBGRAPH_OUTPUTS)]

@@ -459,6 +459,22 @@ if HAVE_NUMBA:
         return b
 
     @numba.njit(cache=True, nogil=True)
+    def _block_corner_cap(cands, k, q_val, q_len, nx, L, F, absdiff, shift, mask, row_prev, row_next):
+        """The k-th smallest normalised block-corner DTW of the first ``k + 2`` of ``cands``
+        (at least ``k`` of them): each is an upper bound of that candidate's exact distance
+        (exact mode, exact arithmetic), so this bounds the k-th best distance from above."""
+        (lc, lco, lrv, lrl, lro, lrd, ldv, ldc, ldo) = L
+        m_ub = k + 2 if k + 2 < cands.shape[0] else cands.shape[0]
+        ubs = np.empty(m_ub)
+        for pos in range(m_ub):
+            c = cands[pos]
+            ubs[pos] = _runs_dtw_raw(q_val, q_len, lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], F, absdiff, shift,
+                                     mask, np.zeros(q_val.shape[0]), np.inf, 1.0,
+                                     row_prev, row_next) / float(nx + lco[c + 1] - lco[c])
+        ubs.sort()
+        return ubs[k - 1]
+
+    @numba.njit(cache=True, nogil=True)
     def _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, RT, lbs, rowmins, colmin, k, use_rle, band, out_idx,
                 out_dist, stats, abandon, range_bound, lazy):
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
@@ -543,15 +559,7 @@ if HAVE_NUMBA:
         # bounds the k-th best distance from above before any exact DTW has run.
         cap = inf
         if use_rle == 1 and band < 0 and ncand >= k:
-            m_ub = k + 2 if k + 2 < ncand else ncand
-            ubs = np.empty(m_ub)
-            for pos in range(m_ub):
-                c = order[pos]
-                ubs[pos] = _runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
-                                         F, absdiff, shift, mask, np.zeros(nruns), inf, 1.0,
-                                         row_prev, row_next) / float(nx + lco[c + 1] - lco[c])
-            ubs.sort()
-            cap = ubs[k - 1]
+            cap = _block_corner_cap(order, k, qrv[r0:r1], qrl[r0:r1], nx, L, F, absdiff, shift, mask, row_prev, row_next)
         if not abandon:
             cap = inf
         n_loop = ncand
@@ -580,16 +588,8 @@ if HAVE_NUMBA:
             sel_rm = rows_sel[sub]
             # the cap again from the best candidates by the full bound (usually nearer)
             if cap < inf and n_loop >= k:
-                m_ub = k + 2 if k + 2 < n_loop else n_loop
-                ubs = np.empty(m_ub)
-                for pos in range(m_ub):
-                    c = loop_order[pos]
-                    ubs[pos] = _runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
-                                             F, absdiff, shift, mask, np.zeros(nruns), inf, 1.0,
-                                             row_prev, row_next) / float(nx + lco[c + 1] - lco[c])
-                ubs.sort()
-                if ubs[k - 1] < cap:
-                    cap = ubs[k - 1]
+                cap = min(cap, _block_corner_cap(loop_order, k, qrv[r0:r1], qrl[r0:r1], nx, L, F, absdiff, shift,
+                                                 mask, row_prev, row_next))
         for pos in range(n_loop):
             c = loop_order[pos]
             thr = out_dist[k - 1]
