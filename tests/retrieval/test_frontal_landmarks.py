@@ -20,6 +20,7 @@ from retrieval.motion.landmarks import (
     R_EAR,
     R_HIP,
     R_SHOULDER,
+    HEAD_ABOVE_NECK,
     UP_OFFSETS,
     LandmarkError,
     consistent_sides,
@@ -99,15 +100,31 @@ def test_documented_offsets(body):
     s = metres_per_pixel(world, image, ok)
     mid_px = (image[:, L_HIP] + image[:, R_HIP]) / 2
     ears_px = (image[:, L_EAR] + image[:, R_EAR]) / 2
-    # the head sits UP_OFFSETS["head"] leg lengths along the trunk from the ear midpoint
+    # the head sits HEAD_ABOVE_NECK trunk lengths above the neck, on the trunk's line,
+    # below the ears (Acclaim's head joint is the top of the neck)
     trunk = out[:, out_jm["neck"]] - out[:, out_jm["hips"]]
+    np.testing.assert_allclose(out[:, out_jm["head"]] - out[:, out_jm["neck"]], HEAD_ABOVE_NECK * trunk, atol=1e-12)
     head_minus_ears_y = out[:, out_jm["head"], 1] - (-(ears_px[:, 1] - np.median(mid_px[:, 1])) * s)
-    assert UP_OFFSETS["head"] < 0 and np.all(head_minus_ears_y < 0)
+    assert "head" not in UP_OFFSETS and np.all(head_minus_ears_y < 0)
     assert np.all(trunk[:, 1] > 0)
     # the root above the (corrected) hip joints by hips − hip offset
     root_up = out[:, out_jm["hips"], 1] - (out[:, out_jm["left_hip"], 1] + out[:, out_jm["right_hip"], 1]) / 2
     raw = (UP_OFFSETS["hips"] - UP_OFFSETS["left_hip"])
     assert np.all(root_up > 0.8 * raw * leg * 0.9) and np.all(root_up < 1.2 * raw * leg * 1.3)
+
+
+def test_a_bigger_head_leaves_the_head_joint_where_it_is(body):
+    """A child's head is larger for its body than an adult's: ears higher above the
+    shoulders must not move the head joint (the top of the neck), nor any other joint."""
+    pos, jm = body
+    world, image = fake_landmarks(pos, jm)
+    ok = np.ones(len(pos), bool)
+    ref, rjm, ref_leg = landmarks_to_positions(world, image, ok)
+    big = image.copy()
+    big[:, [L_EAR, R_EAR], 1] -= 25.0  # ears 25 px (about 17 cm) higher in the image
+    out, _, leg = landmarks_to_positions(world, big, ok)
+    np.testing.assert_allclose(out, ref, atol=1e-12)
+    assert leg == ref_leg
 
 
 def test_missed_frames_are_interpolated(body):
