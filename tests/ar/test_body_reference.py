@@ -29,7 +29,8 @@ from ar.camera_sources import FrameListSource
 DATA = Path(__file__).parent / "data" / "blazepose"
 pytestmark = pytest.mark.skipif(not pose_runtime_available(),
                                 reason="no TFLite interpreter: pip install ai-edge-litert (desktop)")
-MODES = {"static": dict(smooth=False, track=False), "track": dict(smooth=False), "smooth": dict(smooth=True)}
+MODES = {"static": dict(smooth=False, track=False), "track": dict(smooth=False, redetect=False),
+         "smooth": dict(smooth=True, redetect=False)}
 
 
 @pytest.fixture(scope="module")
@@ -105,3 +106,31 @@ def test_track_frames_on_a_camera_source(reference):
     hips = xy[:, 23:25].mean(axis=1)
     assert (abs(hips[:, 0] - 320) < 60).all()  # the performer stands in the middle of the frame
     assert abs(world[:, 23:25].mean(axis=1)).max() < 0.05  # world origin: the hips' midpoint
+
+
+def _shifted(img: np.ndarray, dx: float) -> np.ndarray:
+    m = np.float32([[1, 0, dx], [0, 1, 0]])
+    return cv2.warpAffine(img, m, (img.shape[1], img.shape[0]), borderMode=cv2.BORDER_REPLICATE)
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_a_lost_track_is_found_again_in_the_same_frame(reference, smooth):
+    """The walk cut at frame 6 (the figure jumps 200 px sideways): the region tracked from
+    frame 5 misses it. MediaPipe's graph (``redetect=False``) reports no pose for frame 6
+    and detects on frame 7; StoryBeam's default detects again in frame 6 itself, and its
+    pose there is the one a tracker meeting that frame fresh finds, to the bit."""
+    _, frames = reference
+    walk = frames["person_walk"]
+    stream = walk[:6] + [_shifted(img, 200.0) for img in walk[6:]]
+    found = {}
+    for redetect in (False, True):
+        tracker = BodyTracker(smooth=smooth, redetect=redetect)
+        found[redetect] = [tracker.process(img, (k + 1) / 30.0) for k, img in enumerate(stream)]
+    assert [p is not None for p in found[False]] == [True] * 6 + [False] + [True] * 5
+    assert all(p is not None for p in found[True])
+    fresh = BodyTracker(smooth=smooth).process(stream[6], 7 / 30.0)
+    np.testing.assert_array_equal(found[True][6].image_xy, fresh.image_xy)
+    np.testing.assert_array_equal(found[True][6].world, fresh.world)
+    # before the cut both trackers are MediaPipe's loop, bit for bit
+    for a, b in zip(found[False][:6], found[True][:6]):
+        np.testing.assert_array_equal(a.image_xy, b.image_xy)
