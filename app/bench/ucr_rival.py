@@ -214,11 +214,13 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
         return _eap_dtw(q_didx, lrow[b0:b1], R, rest_row, rest_col, ub, prev, cur)
 
     @numba.njit(cache=True, nogil=True)
-    def _search_cascade(q_didx, q_dcnt, R, colmin, lbs, lc, lco, ldv, ldc, ldo, lrow, stats):  # pragma: no cover
-        """The "cascade" strategy: candidates in order of the cheap bound, stop at the first
-        one above the best, the rows' envelope for each candidate reached (skipped when
-        above the best), early-abandoning DTW. Returns (index, distance) of the nearest
-        candidate."""
+    def _search(q_didx, q_dcnt, R, colmin, lbs, lco, ldv, ldo, lrow, check_rows, stats):  # pragma: no cover
+        """Candidates in order of ``lbs``, stop at the first one above the best,
+        early-abandoning DTW; returns (index, distance) of the nearest candidate.
+        ``check_rows`` (the "cascade" strategy, whose ``lbs`` are the cheap bounds): the
+        rows' envelope of each candidate reached is its second stage, the candidate
+        skipped when that is above the best. Without it ("sorted", ``lbs`` already the
+        full bound) the rows' minima only feed the DTW's bound of the rows to come."""
         nx = q_didx.shape[0]
         ncand = lco.shape[0] - 1
         order = np.argsort(lbs, kind="mergesort")
@@ -244,62 +246,16 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
                 break
             norm = float(nx + lco[c + 1] - lco[c])
             ub = np.inf if best_d == np.inf else best_d * norm * 1.000000001
-            # LB_Keogh(query | candidate envelope), the cascade's second stage, and from the
-            # same minima the cumulative LB_Keogh of the rows still to come
+            # LB_Keogh(query | candidate envelope): each query code's cheapest candidate code,
+            # which also gives the DTW the cumulative LB_Keogh of the rows still to come
             _envelope_rows(RT, ldv[ldo[c]:ldo[c + 1]], rowmin)
-            rows = 0.0
-            for u in range(q_dcnt.shape[0]):
-                rows += rowmin[u] * q_dcnt[u]
-            if rows / norm * 0.999999999 > best_d:
-                pruned += 1
-                continue
-            raw = _abandoning_dtw(c, q_didx, R, colmin, lco, lrow, rowmin, ub, rest_row, rest_col, prev, cur)
-            if raw == np.inf:
-                abandoned += 1
-                continue
-            completed += 1
-            d = raw / norm
-            if d < best_d or (d == best_d and c < best_c):
-                best_d = d
-                best_c = c
-        stats[0] = ncand
-        stats[1] = pruned
-        stats[2] = abandoned
-        stats[3] = completed
-        return best_c, best_d
-
-    @numba.njit(cache=True, nogil=True)
-    def _search_sorted(q_didx, q_dcnt, R, colmin, lbs, lc, lco, ldv, ldc, ldo, lrow, stats):  # pragma: no cover
-        """The "sorted" strategy: every candidate's full bound, candidates in bound order,
-        stop at the first bound above the best, early-abandoning DTW. Returns (index,
-        distance) of the nearest candidate."""
-        nx = q_didx.shape[0]
-        ncand = lco.shape[0] - 1
-        order = np.argsort(lbs, kind="mergesort")
-        maxlen = 1
-        for c in range(ncand):
-            if lco[c + 1] - lco[c] > maxlen:
-                maxlen = lco[c + 1] - lco[c]
-        prev = np.empty(maxlen)
-        cur = np.empty(maxlen)
-        rest_col = np.empty(maxlen)
-        rest_row = np.empty(nx)
-        rowmin = np.empty(q_dcnt.shape[0])
-        RT = np.ascontiguousarray(R.T)
-        best_d = np.inf
-        best_c = -1
-        pruned = 0
-        abandoned = 0
-        completed = 0
-        for pos in range(ncand):
-            c = order[pos]
-            if lbs[c] * 0.999999999 > best_d:
-                pruned = ncand - pos
-                break
-            norm = float(nx + lco[c + 1] - lco[c])
-            ub = np.inf if best_d == np.inf else best_d * norm * 1.000000001
-            # cumulative LB_Keogh, rows still to come: per query frame its cheapest candidate code
-            _envelope_rows(RT, ldv[ldo[c]:ldo[c + 1]], rowmin)
+            if check_rows:
+                rows = 0.0
+                for u in range(q_dcnt.shape[0]):
+                    rows += rowmin[u] * q_dcnt[u]
+                if rows / norm * 0.999999999 > best_d:
+                    pruned += 1
+                    continue
             raw = _abandoning_dtw(c, q_didx, R, colmin, lco, lrow, rowmin, ub, rest_row, rest_col, prev, cur)
             if raw == np.inf:
                 abandoned += 1
@@ -388,12 +344,10 @@ class UCRRival:
         q_didx, q_dcnt, R, colmin = self._prepare(query)
         lbs = np.empty(len(self))
         stats = np.zeros(4, np.int64)
-        if self.strategy == "sorted":
-            _bounds(q_didx, q_dcnt, len(q_didx), R, colmin, self.lrow, self.lco, self.ldv, self.ldc, self.ldo, lbs)
-            c, d = _search_sorted(q_didx, q_dcnt, R, colmin, lbs, self.lrow, self.lco, self.ldv, self.ldc, self.ldo,
-                                  self.lrow, stats)
-        else:
+        cascade = self.strategy == "cascade"
+        if cascade:
             _cheap_bounds(q_didx, len(q_didx), R, colmin, self.lrow, self.lco, self.ldv, self.ldc, self.ldo, lbs)
-            c, d = _search_cascade(q_didx, q_dcnt, R, colmin, lbs, self.lrow, self.lco, self.ldv, self.ldc, self.ldo,
-                                   self.lrow, stats)
+        else:
+            _bounds(q_didx, q_dcnt, len(q_didx), R, colmin, self.lrow, self.lco, self.ldv, self.ldc, self.ldo, lbs)
+        c, d = _search(q_didx, q_dcnt, R, colmin, lbs, self.lco, self.ldv, self.ldo, self.lrow, cascade, stats)
         return RivalResult(int(c), float(d), *(int(x) for x in stats))
