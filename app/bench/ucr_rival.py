@@ -116,31 +116,20 @@ if HAVE_NUMBA:  # optional: numba (the rival is compiled like the fast search)
 
     @numba.njit(cache=True, nogil=True)
     def _bounds(q_didx, q_dcnt, nx, R, colmin, lc, lco, ldv, ldc, ldo, out):  # pragma: no cover - compiled
-        """Normalised max(LB_Kim, LB_Keogh both ways) of every candidate."""
-        qd = q_dcnt.shape[0]
+        """Normalised max(LB_Kim, LB_Keogh both ways) of every candidate: the cheap bounds
+        (:func:`_cheap_bounds`), raised to LB_Keogh(query | candidate envelope) where that
+        is larger."""
+        _cheap_bounds(q_didx, nx, R, colmin, lc, lco, ldv, ldc, ldo, out)
         RT = np.ascontiguousarray(R.T)
-        rowmin = np.empty(qd)
-        qf = q_didx[0]
-        ql = q_didx[nx - 1]
+        rowmin = np.empty(q_dcnt.shape[0])
         for c in range(lco.shape[0] - 1):
-            b0, b1 = lco[c], lco[c + 1]
-            ny = b1 - b0
-            kim = R[qf, lc[b0]]
-            if nx > 1 or ny > 1:
-                kim += R[ql, lc[b1 - 1]]
             _envelope_rows(RT, ldv[ldo[c]:ldo[c + 1]], rowmin)
             rows = 0.0
-            for u in range(qd):
+            for u in range(q_dcnt.shape[0]):
                 rows += rowmin[u] * q_dcnt[u]
-            cols = 0.0
-            for s in range(ldo[c], ldo[c + 1]):
-                cols += colmin[ldv[s]] * ldc[s]
-            best = kim
-            if rows > best:
-                best = rows
-            if cols > best:
-                best = cols
-            out[c] = best / (nx + ny)
+            rows /= nx + lco[c + 1] - lco[c]
+            if rows > out[c]:
+                out[c] = rows
 
     @numba.njit(cache=True, nogil=True)
     def _eap_dtw(q_didx, b, R, rest_row, rest_col, ub, prev, cur):  # pragma: no cover - compiled
