@@ -24,6 +24,8 @@ same neighbours, same distances bit for bit, ties broken by the lower library in
    bound with the query's runs merged into :data:`SEGMENTS` segments, S × runs cells instead
    of runs × runs, rejects most of those candidates more cheaply (counted as
    ``range_rejected`` too);
+   the finer level's segments are cut where the query's codes change most, and a
+   segment-cover DP stops once its rows' part alone is past the k-th best;
    **early abandoning** — a DTW stops as soon as its frontier minimum plus the bound of
    the rows still to come exceeds the k-th best;
 4. **run-length DTW** (:mod:`retrieval.dtw.runlength`) — exact block DP over runs of equal
@@ -65,7 +67,7 @@ from retrieval.dtw.jit import HAVE_NUMBA, numba
 if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is installed)
     from retrieval.dtw.range_bound import range_cover_both
     from retrieval.dtw.runlength import diff_cost, rle_dtw_raw
-    from retrieval.search.segment_bound import segment_cover_nb, segment_rows
+    from retrieval.search.segment_bound import segment_cover_nb, segment_rows, segment_split_adaptive_nb
 
 #: "exact": the seed's distance; "runs": the block-corner run-length approximation.
 MODES = ("exact", "runs")
@@ -77,7 +79,9 @@ SEGMENTS = 8
 #: segment (0: off), used when it gives at least twice SEGMENTS segments. Measured on the
 #: derived libraries, 69 queries, one core, same answers (docs/retrieval-speed.md):
 #: 33 204 clips p95 214.8 -> 172.7 ms, total 4 980 -> 4 595 ms; 3 382 clips total 654 ->
-#: 593 ms (3 runs per segment about the same, 4 and 6 less, 1 the same as 2)
+#: 593 ms (3 runs per segment about the same, 4 and 6 less, 1 the same as 2). Its segments
+#: are cut where the query's codes change most (``segment_split_adaptive``): 33 204 clips
+#: p95 about 155 -> 128 ms with the same segment count; 3 runs per segment cut so: 160 ms
 SEGMENTS_FINE = 2
 #: the stages :meth:`FastSearcher.profile_stages` times, in order
 STAGES = ("pack", "rows", "bounds", "loop")
@@ -544,12 +548,14 @@ if HAVE_NUMBA:
         seg_h = np.empty(nseg, np.int64)
         if use_seg:
             segment_rows(R, qrd[r0:r1], qrl[r0:r1], seg_b, Rs, seg_h)
-        # the second, finer level for long queries: SEGMENTS_FINE runs per segment
+        # the second, finer level for long queries: SEGMENTS_FINE runs per segment, cut
+        # where the query's codes change most (retrieval.search.segment_bound, "Where to cut")
         nseg2 = nruns // SEGMENTS_FINE if SEGMENTS_FINE > 0 else 0
         use_seg2 = use_seg and nseg2 >= 2 * nseg and nseg2 <= nruns
         if not use_seg2:
             nseg2 = 1
-        seg_b2 = _segment_bounds(nruns, nseg2)
+        seg_b2 = _segment_bounds(nruns, nseg2) if not use_seg2 else segment_split_adaptive_nb(
+            qrv[r0:r1], qrl[r0:r1], nseg2, F, absdiff, shift, mask)
         Rs2 = np.empty((nseg2, R.shape[1]), np.float32)
         seg_h2 = np.empty(nseg2, np.int64)
         if use_seg2:
@@ -613,13 +619,15 @@ if HAVE_NUMBA:
             kyc = lro[c + 1] - lro[c]
             rest2 = rest2_buf[:nruns * kyc].reshape((nruns, kyc))
             if use_seg and thr < inf:
-                sb = segment_cover_nb(Rs, seg_h, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf)
+                sb = segment_cover_nb(Rs, seg_h, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
+                                      thr * norm)
                 if sb / norm > thr:
                     abandoned += 1
                     range_rejected += 1
                     continue
                 if use_seg2:
-                    sb = segment_cover_nb(Rs2, seg_h2, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf)
+                    sb = segment_cover_nb(Rs2, seg_h2, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
+                                      thr * norm)
                     if sb / norm > thr:
                         abandoned += 1
                         range_rejected += 1

@@ -11,7 +11,7 @@ from retrieval.dtw import dtw_codes
 from retrieval.dtw.range_bound import monotone_cover_numpy
 from retrieval.dtw.runlength import run_length_decode, run_length_encode
 from retrieval.search import FastSearcher, brute_force
-from retrieval.search.segment_bound import segment_cover_numpy, segment_split
+from retrieval.search.segment_bound import segment_cover_numpy, segment_split, segment_split_adaptive
 
 
 def _slow_codes(rng: np.random.Generator, max_runs: int = 30, max_run: int = 8) -> np.ndarray:
@@ -127,3 +127,97 @@ def test_segment_cover_and_search_on_real_cmu_clips(cmu_dir):
     idx, dist = brute_force(queries, lib, full, k=2)
     res = FastSearcher(lib, diff).search(queries, k=2, parallel=False)
     assert np.array_equal(res.indices, idx) and np.array_equal(res.distances, dist)
+
+
+# --------------------------------------------------------------------- where to cut, early exit
+def test_adaptive_split_covers_every_run_with_the_asked_number_of_segments(tables):
+    _, diff = tables
+    rng = np.random.default_rng(31)
+    for _ in range(60):
+        av, al = run_length_encode(_slow_codes(rng, max_runs=50))
+        for n_seg in (1, 2, 5, 8, 40, 200):
+            b = segment_split_adaptive(av, al, n_seg, diff)
+            assert b[0] == 0 and b[-1] == len(av) and len(b) == min(len(av), n_seg) + 1
+            assert np.all(np.diff(b) >= 1)
+
+
+def test_adaptive_split_cuts_where_the_codes_change(tables):
+    """Two stretches of near-equal codes (one component one level apart) far from each
+    other: two segments split them where they meet, whatever their lengths."""
+    _, diff = tables
+    near_a = [0, 1, 0, 1, 0]  # codes 0 and 1 differ in one component by one level
+    far_b = [4095, 4094, 4095]
+    av = np.array(near_a + far_b)
+    for heights in (np.ones(8, np.int64), np.array([9, 1, 1, 1, 1, 1, 1, 9])):
+        assert list(segment_split_adaptive(av, heights, 2, diff)) == [0, 5, 8]
+    assert list(segment_split(8, 2)) == [0, 4, 8]  # the even split cuts inside the first stretch
+
+
+def test_compiled_adaptive_split_equals_numpy(tables):
+    pytest.importorskip("numba")
+    from retrieval.search.segment_bound import segment_split_adaptive_nb
+    _, diff = tables
+    shift = 2 * diff.low_dims
+    rng = np.random.default_rng(32)
+    for _ in range(150):
+        av, al = run_length_encode(_slow_codes(rng, max_runs=60))
+        if rng.random() < 0.3:
+            av = av % 7  # few distinct codes: many equal merge costs, ties to the leftmost pair
+        for n_seg in (1, 3, 8, max(1, len(av) // 2)):
+            got = segment_split_adaptive_nb(av.astype(np.int32), al.astype(np.int64), n_seg, diff.F, diff.absdiff,
+                                            shift, (1 << shift) - 1)
+            assert np.array_equal(got, segment_split_adaptive(av, al, n_seg, diff))
+
+
+def test_adaptive_segments_give_a_bound_below_the_dtw_and_usually_tighter(tables):
+    full, diff = tables
+    rng = np.random.default_rng(33)
+    even_sum = adaptive_sum = 0.0
+    for _ in range(200):
+        a, b = _slow_codes(rng, max_runs=40), _slow_codes(rng)
+        raw = dtw_codes(a, b, full, normalize=False)
+        av, al = run_length_encode(a)
+        bv, bl = run_length_encode(b)
+        cost = diff.lookup(av[:, None], bv[None, :]).astype(np.float64)
+        n_seg = max(1, len(av) // 3)
+        for bounds in (segment_split(len(av), n_seg), segment_split_adaptive(av, al, n_seg, diff)):
+            C = np.array([cost[bounds[s]:bounds[s + 1]].min(axis=0) for s in range(len(bounds) - 1)])
+            H = np.array([al[bounds[s]:bounds[s + 1]].sum() for s in range(len(bounds) - 1)])
+            sb = segment_cover_numpy(C, H, bl)
+            assert sb <= raw
+        even_sum += segment_cover_numpy(*_segment_costs(a, b, diff, n_seg)[:3])
+        adaptive_sum += sb
+    assert adaptive_sum > even_sum
+
+
+def test_segment_cover_early_exit_returns_a_lower_bound_above_the_limit(tables):
+    pytest.importorskip("numba")
+    from retrieval.search.segment_bound import segment_cover_nb, segment_rows
+    _, diff = tables
+    rng = np.random.default_rng(34)
+    exits = 0
+    for _ in range(200):
+        a, b = _slow_codes(rng), _slow_codes(rng)
+        C, H, W, bounds, av, al = _segment_costs(a, b, diff, int(rng.integers(1, 12)))
+        vocab = np.unique(np.concatenate([a, b]))
+        qd, q_rows = np.unique(av, return_inverse=True)
+        R = diff.lookup(qd[:, None], vocab[None, :]).astype(np.float32)
+        Rs = np.empty((len(bounds) - 1, len(vocab)), np.float32)
+        Hs = np.empty(len(bounds) - 1, np.int64)
+        segment_rows(R, q_rows.astype(np.int64), al, bounds, Rs, Hs)
+        bv, bl = run_length_encode(b)
+        cv = np.searchsorted(vocab, bv).astype(np.int32)
+        work = np.empty(len(bv) + 2), np.empty(len(bv) + 2)
+        whole = segment_cover_nb(Rs, Hs, cv, bl, *work)
+        assert whole == segment_cover_numpy(C, H, W)
+        limit = whole * rng.uniform(0.0, 1.2)
+        got = segment_cover_nb(Rs, Hs, cv, bl, *work, limit)
+        if limit >= whole:
+            assert got == whole  # no exit: the whole bound
+        else:
+            assert got <= whole  # a lower bound all the same
+            if got != whole:
+                assert got > limit  # it exits only once past the limit
+                exits += 1
+    assert exits > 20  # the early exit is exercised
+
