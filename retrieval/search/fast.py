@@ -34,6 +34,22 @@ same neighbours, same distances bit for bit, ties broken by the lower library in
    thread, each with the cascade); a single query computes its bounds in a ``prange``
    over candidates.
 
+**Visiting order.** Without the segment filter (short queries) the candidates are verified
+in envelope order. With it, the search is best-first over bounds refined lazily: the
+candidates stream in envelope order; each enters a min-heap keyed by its coarse
+segment-cover bound, and an entry popped from the heap is refined to the finer level (and
+pushed again) or, once fully refined, verified (range cover, exact DP). A step takes the
+stream's next candidate when its envelope bound is below the heap's least key, and the heap's
+least otherwise; it stops when the least bound left exceeds the k-th best. Every key is a
+lower bound of its candidate's distance (the largest of the bounds computed for it), so no
+candidate within the k-th best is skipped, and the candidates are verified in order of their
+finest bound, which ranks the nearest clips far better than the envelope does (on the
+slowest query of 69 over 33 204 derived clips, the nearest clip is 546th by its envelope
+bound and 5th by the finer segment bound). The k-th best distance then falls to its final
+value after a few exact DPs, and every later range-cover bound and DP runs under it: on
+that query the DPs went from 314 to 105 (the number whose range-cover bound is within the
+final distance; docs/retrieval-speed.md).
+
 ``backend="numpy"`` (Android: no numba) runs the same bounds and pruning with the
 vectorised anti-diagonal DP of :mod:`retrieval.dtw.kernels`: same neighbours and distances,
 without early abandoning or run-length blocks.
@@ -479,6 +495,50 @@ if HAVE_NUMBA:
         return ubs[k - 1]
 
     @numba.njit(cache=True, nogil=True)
+    def _heap_less(hk, hp, i, j):
+        """Heap order: the smaller key, ties to the earlier position (deterministic)."""
+        return hk[i] < hk[j] or (hk[i] == hk[j] and hp[i] < hp[j])
+
+    @numba.njit(cache=True, nogil=True)
+    def _heap_swap(hk, hp, hl, i, j):
+        hk[i], hk[j] = hk[j], hk[i]
+        hp[i], hp[j] = hp[j], hp[i]
+        hl[i], hl[j] = hl[j], hl[i]
+
+    @numba.njit(cache=True, nogil=True)
+    def _heap_push(hk, hp, hl, n, key, p, lvl):
+        """Add (key, position, level) to the binary min-heap of ``n`` entries; returns n + 1."""
+        hk[n], hp[n], hl[n] = key, p, lvl
+        i = n
+        while i > 0:
+            up = (i - 1) >> 1
+            if not _heap_less(hk, hp, i, up):
+                break
+            _heap_swap(hk, hp, hl, i, up)
+            i = up
+        return n + 1
+
+    @numba.njit(cache=True, nogil=True)
+    def _heap_pop(hk, hp, hl, n):
+        """Drop the least entry of the heap of ``n`` entries; returns n − 1."""
+        n -= 1
+        if n > 0:
+            hk[0], hp[0], hl[0] = hk[n], hp[n], hl[n]
+            i = 0
+            while True:
+                lft = 2 * i + 1
+                if lft >= n:
+                    break
+                m = lft
+                if lft + 1 < n and _heap_less(hk, hp, lft + 1, lft):
+                    m = lft + 1
+                if not _heap_less(hk, hp, m, i):
+                    break
+                _heap_swap(hk, hp, hl, i, m)
+                i = m
+        return n
+
+    @numba.njit(cache=True, nogil=True)
     def _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, RT, lbs, rowmins, colmin, k, use_rle, band, out_idx,
                 out_dist, stats, abandon, range_bound, lazy):
         """Candidates in bound order: prune, DTW with early abandoning, keep the k best
@@ -543,7 +603,7 @@ if HAVE_NUMBA:
         # segment-cover filter (retrieval.search.segment_bound): the query's runs in a few segments
         nseg = SEGMENTS if SEGMENTS < nruns else nruns
         use_seg = use_range and SEGMENTS > 0 and nseg < nruns
-        seg_b = _segment_bounds(nruns, nseg)
+        seg_b = _segment_bounds(nruns, nseg)  # cut evenly: cutting where the codes change gained nothing here
         Rs = np.empty((nseg, R.shape[1]), np.float32)
         seg_h = np.empty(nseg, np.int64)
         if use_seg:
@@ -596,21 +656,79 @@ if HAVE_NUMBA:
             if cap < inf and n_loop >= k:
                 cap = min(cap, _block_corner_cap(loop_order, k, qrv[r0:r1], qrl[r0:r1], nx, L, F, absdiff, shift,
                                                  mask, row_prev, row_next))
-        for pos in range(n_loop):
-            c = loop_order[pos]
+        # Best-first over bounds refined lazily (module docstring, "Visiting order"): a
+        # candidate enters a heap keyed by its segment-cover bound (coarse, then fine)
+        # when the next envelope bound in the stream is no lower than the heap's least
+        # key; the heap's least is verified (range cover, exact DP) once it is fully
+        # refined. Without the segment filter: envelope order, as before.
+        best_first = use_seg and abandon
+        hk = np.empty(n_loop + 1 if best_first else 1)  # heap: key (a raw bound / norm)
+        hp = np.empty(hk.shape[0], np.int64)  # position in loop_order
+        hl = np.empty(hk.shape[0], np.int64)  # level of the key: 1 coarse, 2 fine
+        nh = 0
+        pos = 0
+        while True:
             thr = out_dist[k - 1]
             if cap < thr:
                 thr = cap
             if not abandon:
                 thr = inf  # brute force: every DTW runs to the end
-            if (loop_lb[pos] if lazy else lbs[c]) > thr:
-                pruned += n_loop - pos
-                break
+            nxt_lb = inf
+            if pos < n_loop:
+                nxt_lb = loop_lb[pos] if lazy else lbs[loop_order[pos]]
+            if nh == 0 or nxt_lb < hk[0]:
+                # the stream's next candidate
+                if pos >= n_loop:
+                    break
+                if nxt_lb > thr:
+                    pruned += n_loop - pos
+                    pos = n_loop
+                    if nh == 0:
+                        break
+                    continue
+                vpos = pos
+                pos += 1
+                c = loop_order[vpos]
+                if best_first:
+                    norm = float(nx + lco[c + 1] - lco[c])
+                    sb = segment_cover_nb(Rs, seg_h, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
+                                          thr * norm) / norm
+                    if sb < nxt_lb:
+                        sb = nxt_lb  # the larger of two lower bounds is one
+                    if sb > thr:
+                        abandoned += 1
+                        range_rejected += 1
+                        continue
+                    nh = _heap_push(hk, hp, hl, nh, sb, vpos, 1)
+                    continue
+            else:
+                # the heap's least bound
+                key, vpos, lvl = hk[0], hp[0], hl[0]
+                if key > thr:  # so is every other bound left: all rejected
+                    abandoned += nh
+                    range_rejected += nh
+                    pruned += n_loop - pos
+                    break
+                nh = _heap_pop(hk, hp, hl, nh)
+                c = loop_order[vpos]
+                if lvl == 1 and use_seg2:
+                    norm = float(nx + lco[c + 1] - lco[c])
+                    sb = segment_cover_nb(Rs2, seg_h2, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
+                                          thr * norm) / norm
+                    if sb < key:
+                        sb = key
+                    if sb > thr:
+                        abandoned += 1
+                        range_rejected += 1
+                        continue
+                    nh = _heap_push(hk, hp, hl, nh, sb, vpos, 2)
+                    continue
+            # verify candidate c: range-cover bound, then the exact DP
             b0, b1 = lco[c], lco[c + 1]
             ny = b1 - b0
             norm = float(nx + ny)
             # per distinct query code: its cheapest code in this candidate
-            rm = sel_rm[pos] if lazy else rowmins[c]
+            rm = sel_rm[vpos] if lazy else rowmins[c]
             if not use_range:  # the envelope of the rows still to come, per run
                 acc = 0.0
                 for p in range(nruns - 1, -1, -1):
@@ -618,20 +736,6 @@ if HAVE_NUMBA:
                     acc += rm[qrd[r0 + p]] * qrl[r0 + p]
             kyc = lro[c + 1] - lro[c]
             rest2 = rest2_buf[:nruns * kyc].reshape((nruns, kyc))
-            if use_seg and thr < inf:
-                sb = segment_cover_nb(Rs, seg_h, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
-                                      thr * norm)
-                if sb / norm > thr:
-                    abandoned += 1
-                    range_rejected += 1
-                    continue
-                if use_seg2:
-                    sb = segment_cover_nb(Rs2, seg_h2, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
-                                      thr * norm)
-                    if sb / norm > thr:
-                        abandoned += 1
-                        range_rejected += 1
-                        continue
             if use_range:
                 # order-aware bounds and "cost still to come" (retrieval.range_bound)
                 acc = 0.0

@@ -221,3 +221,28 @@ def test_segment_cover_early_exit_returns_a_lower_bound_above_the_limit(tables):
                 exits += 1
     assert exits > 20  # the early exit is exercised
 
+
+def test_best_first_order_verifies_the_nearest_clip_before_its_look_alikes(tables):
+    """Clips with the query's codes, first and last frames in a shuffled order have the
+    same envelope bound as the query's own clip (zero), which sorts last among them; the
+    segment-cover bounds tell them apart, so the search verifies the query's clip first and
+    rejects every look-alike by its bound: one exact DP (module docstring of
+    retrieval.search.fast, "Visiting order"). In envelope order every look-alike before it
+    would reach the range-cover bound, and some the DP."""
+    full, diff = tables
+    rng = np.random.default_rng(35)
+    vals = rng.choice(4096, 40, replace=False)
+    query = run_length_decode(vals, rng.integers(2, 5, 40))
+    lib = []
+    for _ in range(60):
+        mid = vals[1:-1].copy()
+        rng.shuffle(mid)
+        lib.append(run_length_decode(np.concatenate([vals[:1], mid, vals[-1:]]), rng.integers(2, 5, 40)))
+    lib.append(run_length_decode(vals, rng.integers(2, 5, 40)))  # the same motion, other timing
+    res = FastSearcher(lib, diff).search([query], k=1, parallel=False)
+    idx, dist = brute_force([query], lib, full, k=1)
+    assert np.array_equal(res.indices, idx) and np.array_equal(res.distances, dist)
+    assert res.indices[0, 0] == len(lib) - 1
+    st = res.stats
+    exact_dps = st.completed + st.abandoned - st.range_rejected
+    assert st.pruned == 0 and exact_dps == 1
