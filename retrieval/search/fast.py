@@ -541,7 +541,8 @@ if HAVE_NUMBA:
     @numba.njit(cache=True, nogil=True)
     def _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, RT, lbs, rowmins, colmin, k, use_rle, band, out_idx,
                 out_dist, stats, abandon, range_bound, lazy):
-        """Candidates in bound order: prune, DTW with early abandoning, keep the k best
+        """Candidates in bound order (best-first over refined bounds when the segment filter
+        is in use, module docstring): prune, DTW with early abandoning, keep the k best
         (distance, then index). Writes out_idx/out_dist (k) and stats (5). ``LV``: the
         library's codes and run values as vocabulary indices (columns of ``R``)."""
         (qc, qco, qrv, qrl, qro, qrd, qdv, qdc, qdo) = Q
@@ -949,8 +950,8 @@ class FastSearcher:
                     times: dict[str, float] | None = None) -> None:
         """One query through the compiled kernels: its table rows, the bounds (on one
         thread the cascade's cheap bounds of every candidate; over all cores all three in
-        a ``prange``), then the candidate loop (bound order, range-cover rejection,
-        early-abandoning DP). With ``times``, each stage's seconds are added to it under
+        a ``prange``), then the candidate loop (bound order or best-first, segment- and
+        range-cover rejection, early-abandoning DP). With ``times``, each stage's seconds are added to it under
         :data:`STAGES` (``rows``, ``bounds``, ``loop``)."""
         t = self.table
         clock = time.perf_counter
