@@ -539,6 +539,17 @@ if HAVE_NUMBA:
         return n
 
     @numba.njit(cache=True, nogil=True)
+    def _segment_key(Rs, H, c, L, lrv_v, nx, thr, floor, mx_buf, my_buf):
+        """Candidate ``c``'s heap key at a segment level: its normalised segment-cover bound
+        (the DP stops past ``thr``), raised to ``floor`` (a bound already known for it: the
+        larger of two lower bounds is one)."""
+        lco, lrl, lro = L[1], L[3], L[4]
+        norm = float(nx + lco[c + 1] - lco[c])
+        sb = segment_cover_nb(Rs, H, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
+                              thr * norm) / norm
+        return sb if sb > floor else floor
+
+    @numba.njit(cache=True, nogil=True)
     def _refine(qi, Q, L, LV, F, absdiff, shift, mask, R, RT, lbs, rowmins, colmin, k, use_rle, band, out_idx,
                 out_dist, stats, abandon, range_bound, lazy):
         """Candidates in bound order (best-first over refined bounds when the segment filter
@@ -690,40 +701,28 @@ if HAVE_NUMBA:
                 vpos = pos
                 pos += 1
                 c = loop_order[vpos]
-                if best_first:
-                    norm = float(nx + lco[c + 1] - lco[c])
-                    sb = segment_cover_nb(Rs, seg_h, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
-                                          thr * norm) / norm
-                    if sb < nxt_lb:
-                        sb = nxt_lb  # the larger of two lower bounds is one
-                    if sb > thr:
-                        abandoned += 1
-                        range_rejected += 1
-                        continue
-                    nh = _heap_push(hk, hp, hl, nh, sb, vpos, 1)
-                    continue
+                level = 1 if best_first else 0  # 0: verify now (envelope order)
+                floor = nxt_lb
             else:
                 # the heap's least bound
-                key, vpos, lvl = hk[0], hp[0], hl[0]
-                if key > thr:  # so is every other bound left: all rejected
+                floor, vpos, lvl = hk[0], hp[0], hl[0]
+                if floor > thr:  # so is every other bound left: all rejected
                     abandoned += nh
                     range_rejected += nh
                     pruned += n_loop - pos
                     break
                 nh = _heap_pop(hk, hp, hl, nh)
                 c = loop_order[vpos]
-                if lvl == 1 and use_seg2:
-                    norm = float(nx + lco[c + 1] - lco[c])
-                    sb = segment_cover_nb(Rs2, seg_h2, lrv_v[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], mx_buf, my_buf,
-                                          thr * norm) / norm
-                    if sb < key:
-                        sb = key
-                    if sb > thr:
-                        abandoned += 1
-                        range_rejected += 1
-                        continue
-                    nh = _heap_push(hk, hp, hl, nh, sb, vpos, 2)
-                    continue
+                level = 2 if (lvl == 1 and use_seg2) else 0  # 0: fully refined, verify
+            if level > 0:  # refine: the segment-cover bound of this level, back into the heap
+                sb = _segment_key(Rs if level == 1 else Rs2, seg_h if level == 1 else seg_h2, c, L, lrv_v, nx, thr,
+                                  floor, mx_buf, my_buf)
+                if sb > thr:
+                    abandoned += 1
+                    range_rejected += 1
+                else:
+                    nh = _heap_push(hk, hp, hl, nh, sb, vpos, level)
+                continue
             # verify candidate c: range-cover bound, then the exact DP
             b0, b1 = lco[c], lco[c + 1]
             ny = b1 - b0

@@ -31,6 +31,22 @@ def _segment_costs(a: np.ndarray, b: np.ndarray, table: DiffTable, n_seg: int):
     return C, H, bl, bounds, av, al
 
 
+def _compiled_inputs(a: np.ndarray, b: np.ndarray, table: DiffTable, n_seg: int):
+    """What the compiled kernels take, built with the compiled ``segment_rows``: (C, H, W of
+    the definition, Rs, its heights, the candidate's runs as vocabulary indices, their
+    widths)."""
+    from retrieval.search.segment_bound import segment_rows
+    C, H, W, bounds, av, al = _segment_costs(a, b, table, n_seg)
+    vocab = np.unique(np.concatenate([a, b]))
+    qd, q_rows = np.unique(av, return_inverse=True)
+    R = table.lookup(qd[:, None], vocab[None, :]).astype(np.float32)
+    Rs = np.empty((len(bounds) - 1, len(vocab)), np.float32)
+    Hs = np.empty(len(bounds) - 1, np.int64)
+    segment_rows(R, q_rows.astype(np.int64), al, bounds, Rs, Hs)
+    bv, bl = run_length_encode(b)
+    return C, H, W, Rs, Hs, np.searchsorted(vocab, bv).astype(np.int32), bl
+
+
 @pytest.fixture(scope="module")
 def tables():
     c = np.sort(np.random.default_rng(3).dirichlet(np.ones(17)))[::-1][:6]
@@ -74,22 +90,14 @@ def test_segment_cover_is_below_the_dtw_and_equals_range_cover_with_one_run_each
 
 def test_compiled_segment_cover_equals_numpy(tables):
     pytest.importorskip("numba")
-    from retrieval.search.segment_bound import segment_cover_nb, segment_rows
+    from retrieval.search.segment_bound import segment_cover_nb
     _, diff = tables
     rng = np.random.default_rng(22)
     for _ in range(200):
         a, b = _slow_codes(rng), _slow_codes(rng)
-        n_seg = int(rng.integers(1, 9))
-        C, H, W, bounds, av, al = _segment_costs(a, b, diff, n_seg)
-        vocab = np.unique(np.concatenate([a, b]))
-        qd, q_rows = np.unique(av, return_inverse=True)
-        R = diff.lookup(qd[:, None], vocab[None, :]).astype(np.float32)
-        Rs = np.empty((len(bounds) - 1, len(vocab)), np.float32)
-        Hs = np.empty(len(bounds) - 1, np.int64)
-        segment_rows(R, q_rows.astype(np.int64), al, bounds, Rs, Hs)
-        bv, bl = run_length_encode(b)
-        work = np.empty(len(bv) + len(av) + 2)
-        got = segment_cover_nb(Rs, Hs, np.searchsorted(vocab, bv).astype(np.int32), bl, work, np.empty_like(work))
+        C, H, W, Rs, Hs, cv, bl = _compiled_inputs(a, b, diff, int(rng.integers(1, 9)))
+        work = np.empty(len(bl) + 2)
+        got = segment_cover_nb(Rs, Hs, cv, bl, work, np.empty_like(work))
         assert np.array_equal(Hs, H)
         assert got == segment_cover_numpy(C, H, W)
 
@@ -192,22 +200,14 @@ def test_adaptive_segments_give_a_bound_below_the_dtw_and_usually_tighter(tables
 
 def test_segment_cover_early_exit_returns_a_lower_bound_above_the_limit(tables):
     pytest.importorskip("numba")
-    from retrieval.search.segment_bound import segment_cover_nb, segment_rows
+    from retrieval.search.segment_bound import segment_cover_nb
     _, diff = tables
     rng = np.random.default_rng(34)
     exits = 0
     for _ in range(200):
         a, b = _slow_codes(rng), _slow_codes(rng)
-        C, H, W, bounds, av, al = _segment_costs(a, b, diff, int(rng.integers(1, 12)))
-        vocab = np.unique(np.concatenate([a, b]))
-        qd, q_rows = np.unique(av, return_inverse=True)
-        R = diff.lookup(qd[:, None], vocab[None, :]).astype(np.float32)
-        Rs = np.empty((len(bounds) - 1, len(vocab)), np.float32)
-        Hs = np.empty(len(bounds) - 1, np.int64)
-        segment_rows(R, q_rows.astype(np.int64), al, bounds, Rs, Hs)
-        bv, bl = run_length_encode(b)
-        cv = np.searchsorted(vocab, bv).astype(np.int32)
-        work = np.empty(len(bv) + 2), np.empty(len(bv) + 2)
+        C, H, W, Rs, Hs, cv, bl = _compiled_inputs(a, b, diff, int(rng.integers(1, 12)))
+        work = np.empty(len(bl) + 2), np.empty(len(bl) + 2)
         whole = segment_cover_nb(Rs, Hs, cv, bl, *work)
         assert whole == segment_cover_numpy(C, H, W)
         limit = whole * rng.uniform(0.0, 1.2)
