@@ -539,6 +539,27 @@ if HAVE_NUMBA:
         return n
 
     @numba.njit(cache=True, nogil=True)
+    def _least_first(values, m):
+        """Indices of the ``m`` least ``values`` (all of them if fewer), in increasing order
+        of (value, index) — the first ``m`` of a stable argsort, in one pass."""
+        n = values.shape[0]
+        m = m if m < n else n
+        out = np.empty(m, np.int64)
+        got = 0
+        for i in range(n):
+            v = values[i]
+            if got == m and not v < values[out[m - 1]]:
+                continue
+            j = got if got < m else m - 1  # where it goes: shift the larger ones right
+            while j > 0 and v < values[out[j - 1]]:
+                out[j] = out[j - 1]
+                j -= 1
+            out[j] = i
+            if got < m:
+                got += 1
+        return out
+
+    @numba.njit(cache=True, nogil=True)
     def _segment_key(Rs, H, c, L, lrv_v, nx, thr, floor, mx_buf, my_buf):
         """Candidate ``c``'s heap key at a segment level: its normalised segment-cover bound
         (the DP stops past ``thr``), raised to ``floor`` (a bound already known for it: the
@@ -568,7 +589,9 @@ if HAVE_NUMBA:
         for t in range(k):
             out_idx[t] = -1
             out_dist[t] = inf
-        order = np.argsort(lbs, kind="mergesort")
+        # the lazy cascade needs only the k + 2 least cheap bounds in order (for the first
+        # cap), not all of them sorted: sorting 3 382 bounds took about a sixth of a median query
+        order = _least_first(lbs, k + 2) if lazy else np.argsort(lbs, kind="mergesort")
         maxlen = 1
         for c in range(ncand):
             if lco[c + 1] - lco[c] > maxlen:
@@ -650,18 +673,25 @@ if HAVE_NUMBA:
             # cannot enter the k best), then those in order of the full bound
             nqd = qdo[qi + 1] - qdo[qi]
             n_loop = 0
-            while n_loop < ncand and lbs[order[n_loop]] <= cap:
-                n_loop += 1
+            for c in range(ncand):
+                if lbs[c] <= cap:
+                    n_loop += 1
+            within = np.empty(n_loop, np.int64)
+            s = 0
+            for c in range(ncand):
+                if lbs[c] <= cap:
+                    within[s] = c
+                    s += 1
             pruned += ncand - n_loop
             full = np.empty(n_loop)
             rows_sel = np.empty((n_loop, nqd), np.float32)
             for s in range(n_loop):
-                c = order[s]
+                c = within[s]
                 r = _envelope_rows(qdc[qdo[qi]:qdo[qi + 1]], ldv[ldo[c]:ldo[c + 1]], RT, rows_sel[s])
                 r /= float(nx + lco[c + 1] - lco[c])
                 full[s] = r if r > lbs[c] else lbs[c]
             sub = np.argsort(full, kind="mergesort")
-            loop_order = order[:n_loop][sub]
+            loop_order = within[sub]
             loop_lb = full[sub]
             sel_rm = rows_sel[sub]
             # the cap again from the best candidates by the full bound (usually nearer)

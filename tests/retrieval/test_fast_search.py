@@ -472,6 +472,22 @@ def test_compiled_packing_equals_the_numpy_packing():
             PackedCodes.from_sequences([np.array([1], np.int32), bad], 4096)
 
 
+def test_least_first_is_the_head_of_a_stable_sort():
+    """The lazy cascade takes the k + 2 least cheap bounds in one pass instead of sorting
+    them all: the same indices in the same order as a stable argsort's first ones, ties
+    (many here) to the lower index."""
+    pytest.importorskip("numba")
+    from retrieval.search.fast import _least_first
+    rng = np.random.default_rng(58)
+    for _ in range(300):
+        n = int(rng.integers(1, 60))
+        v = rng.integers(0, 6, n).astype(np.float64) / 4 if rng.random() < 0.5 else rng.random(n)
+        if rng.random() < 0.2:
+            v[rng.integers(0, n)] = np.inf
+        for m in (1, 3, 7, n, n + 4):
+            assert np.array_equal(_least_first(v, m), np.argsort(v, kind="mergesort")[:m])
+
+
 @pytest.mark.parametrize("backend", ["numba", "numpy"])
 def test_motion_index_answers_equal_the_brute_force_reference(backend):
     """MotionIndex.query / similar_to go through the fast search and return exactly what the
