@@ -8,13 +8,16 @@ same neighbours, same distances bit for bit, ties broken by the lower library in
 1. **compact table** — the 20 KiB :class:`~retrieval.codes.tables.DiffTable` instead of
    the 64 MiB table (identical values);
 2. **lower bounds** (:mod:`retrieval.dtw.lower_bounds`), cascaded cheapest first: LB_Kim
-   and the columns' envelope (one load per distinct candidate code) for every candidate,
-   candidates in increasing order of that bound, the loop stopping at the first one above
-   the current k-th best distance (all after it are *pruned*); the rows' envelope (one
-   load per pair of query and candidate codes, read as contiguous transposed rows and
-   folded into every query code's minimum at once) only for the candidates the loop
-   reaches, each pruned when it exceeds the k-th best. Searching a single query over all
-   cores computes all three for every candidate in a ``prange`` and sorts by their maximum;
+   and the columns' envelope (one load per distinct candidate code) for every candidate;
+   the block-corner DTW of the k + 2 candidates with the least of those bounds (taken in
+   one pass, not by sorting them all) caps the k-th best distance from above, and every
+   candidate whose cheap bound exceeds the cap is *pruned*; the rows' envelope (one load
+   per pair of query and candidate codes, read as contiguous transposed rows and folded
+   into every query code's minimum at once) only for the candidates within the cap, which
+   are then visited in order of the full bound (the cap recomputed from the best k + 2 of
+   them), the loop stopping at the first bound above the k-th best. Searching a single
+   query over all cores computes all three for every candidate in a ``prange`` and sorts
+   by their maximum;
 3. **range-cover bound** (:mod:`retrieval.dtw.range_bound`, run-length exact mode) — for a
    candidate that survives its envelope bound, an order-aware bound over runs,
    O(runs × runs): the candidate is rejected without a DTW when it exceeds the k-th best,
