@@ -675,16 +675,8 @@ if HAVE_NUMBA:
             # only for the candidates whose cheap bound is within the cap (the others
             # cannot enter the k best), then those in order of the full bound
             nqd = qdo[qi + 1] - qdo[qi]
-            n_loop = 0
-            for c in range(ncand):
-                if lbs[c] <= cap:
-                    n_loop += 1
-            within = np.empty(n_loop, np.int64)
-            s = 0
-            for c in range(ncand):
-                if lbs[c] <= cap:
-                    within[s] = c
-                    s += 1
+            within = np.nonzero(lbs <= cap)[0]  # in index order
+            n_loop = within.shape[0]
             pruned += ncand - n_loop
             full = np.empty(n_loop)
             rows_sel = np.empty((n_loop, nqd), np.float32)
@@ -983,8 +975,8 @@ class FastSearcher:
         """One query through the compiled kernels: its table rows, the bounds (on one
         thread the cascade's cheap bounds of every candidate; over all cores all three in
         a ``prange``), then the candidate loop (bound order or best-first, segment- and
-        range-cover rejection, early-abandoning DP). With ``times``, each stage's seconds are added to it under
-        :data:`STAGES` (``rows``, ``bounds``, ``loop``)."""
+        range-cover rejection, early-abandoning DP). With ``times``, each stage's seconds
+        are added to it under :data:`STAGES` (``rows``, ``bounds``, ``loop``)."""
         t = self.table
         clock = time.perf_counter
         t0 = clock()

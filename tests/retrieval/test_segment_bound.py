@@ -20,12 +20,13 @@ def _slow_codes(rng: np.random.Generator, max_runs: int = 30, max_run: int = 8) 
     return run_length_decode(vals, rng.integers(1, max_run + 1, k))
 
 
-def _segment_costs(a: np.ndarray, b: np.ndarray, table: DiffTable, n_seg: int):
-    """(C, segment heights, candidate run widths), straight from the definition."""
+def _segment_costs(a: np.ndarray, b: np.ndarray, table: DiffTable, n_seg: int, adaptive: bool = False):
+    """(C, segment heights, candidate run widths), straight from the definition; the
+    query's runs cut evenly, or where its codes change (``adaptive``)."""
     av, al = run_length_encode(a)
     bv, bl = run_length_encode(b)
     cost = table.lookup(av[:, None], bv[None, :]).astype(np.float64)
-    bounds = segment_split(len(av), n_seg)
+    bounds = segment_split_adaptive(av, al, n_seg, table) if adaptive else segment_split(len(av), n_seg)
     C = np.array([cost[bounds[s]:bounds[s + 1]].min(axis=0) for s in range(len(bounds) - 1)])
     H = np.array([al[bounds[s]:bounds[s + 1]].sum() for s in range(len(bounds) - 1)])
     return C, H, bl, bounds, av, al
@@ -184,17 +185,12 @@ def test_adaptive_segments_give_a_bound_below_the_dtw_and_usually_tighter(tables
     for _ in range(200):
         a, b = _slow_codes(rng, max_runs=40), _slow_codes(rng)
         raw = dtw_codes(a, b, full, normalize=False)
-        av, al = run_length_encode(a)
-        bv, bl = run_length_encode(b)
-        cost = diff.lookup(av[:, None], bv[None, :]).astype(np.float64)
-        n_seg = max(1, len(av) // 3)
-        for bounds in (segment_split(len(av), n_seg), segment_split_adaptive(av, al, n_seg, diff)):
-            C = np.array([cost[bounds[s]:bounds[s + 1]].min(axis=0) for s in range(len(bounds) - 1)])
-            H = np.array([al[bounds[s]:bounds[s + 1]].sum() for s in range(len(bounds) - 1)])
-            sb = segment_cover_numpy(C, H, bl)
-            assert sb <= raw
-        even_sum += segment_cover_numpy(*_segment_costs(a, b, diff, n_seg)[:3])
-        adaptive_sum += sb
+        n_seg = max(1, len(run_length_encode(a)[0]) // 3)
+        even = segment_cover_numpy(*_segment_costs(a, b, diff, n_seg)[:3])
+        adaptive = segment_cover_numpy(*_segment_costs(a, b, diff, n_seg, adaptive=True)[:3])
+        assert even <= raw and adaptive <= raw
+        even_sum += even
+        adaptive_sum += adaptive
     assert adaptive_sum > even_sum
 
 
