@@ -10,7 +10,7 @@ it; ``docs/architecture.md`` draws it):
 * :mod:`app.scene` -- the one table-to-scene mapping, the animator, the stage, the render
   thread and video export;
 * :mod:`app.ui` -- the Kivy screens and widgets only;
-* :mod:`app.commands` -- one module per ``storybeam`` command (found by :mod:`app.cli`);
-* :mod:`app.bench` and :mod:`app.stress` -- benchmarks and robustness harnesses, which no
-  library or app module imports.
+* :mod:`app.commands` -- one module per ``storybeam`` command (found by :mod:`app.cli`),
+  the only modules that import the lab (:mod:`lab`: benchmarks, stress harnesses, the
+  research experiment).
 """

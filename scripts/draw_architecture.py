@@ -44,7 +44,7 @@ SHARED = "retrieval.errors"
 #: Imports the scan cannot see (made with importlib): (from, to, label).
 DYNAMIC_EDGES = (("app.cli", "app.commands", "importlib"),)
 #: Package docstrings only: no node unless something imports them.
-EMPTY_ROOTS = ("retrieval", "app")
+EMPTY_ROOTS = ("retrieval", "app", "lab")
 
 
 def edges(modules: Mapping[str, Module]) -> dict[tuple[str, str], bool]:
@@ -120,7 +120,7 @@ def mermaid(modules: Mapping[str, Module]) -> str:
     graph = edges(modules)
     names = nodes(modules, graph)
     lines = ["```mermaid", "flowchart BT"]
-    for top in ("retrieval", "ar", "app"):
+    for top in ("retrieval", "ar", "app", "lab"):
         members = [n for n in names if n.split(".")[0] == top]
         if not members:
             continue
@@ -167,9 +167,9 @@ def draw_png(modules: Mapping[str, Module], path: Path = PNG) -> None:
     for a, b, _label in DYNAMIC_EDGES:
         full.setdefault((a, b), True)
     drawn = reduced(full)
-    tops = ("retrieval", "ar", "app")
-    fill = {"retrieval": "#dbe9f6", "ar": "#e3f1dc", "app": "#fbe5cf"}
-    ink = {"retrieval": "#2b6cb0", "ar": "#2f855a", "app": "#c05621"}
+    tops = ("retrieval", "ar", "app", "lab")
+    fill = {"retrieval": "#dbe9f6", "ar": "#e3f1dc", "app": "#fbe5cf", "lab": "#ece4f5"}
+    ink = {"retrieval": "#2b6cb0", "ar": "#2f855a", "app": "#c05621", "lab": "#6b46c1"}
     box_w, box_h, gap = 1.55, 0.44, 0.25
     # each column is as wide as its widest row
     spans, x0 = {}, 0.0

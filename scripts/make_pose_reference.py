@@ -7,7 +7,7 @@ it never enters StoryBeam's .venv):
    renders the short sequences of :data:`SEQUENCES` with pyrender -- a CMU clip retargeted
    onto ``build_character("person")`` or ``"kid"``, in place, facing a level camera in
    front, 640x480, 30 fps (the figures and camera of ``storybeam bench act-it-out``:
-   :func:`app.bench.act_it_out.make_performance` / ``render_frames``) -- and writes the
+   :func:`lab.bench.act_it_out.make_performance` / ``render_frames``) -- and writes the
    frames as JPEG (quality :data:`JPEG_QUALITY`) to ``tests/ar/data/blazepose/``.
 2. ``/tmp/mpenv/bin/python scripts/make_pose_reference.py reference`` (an environment with
    only ``pip install mediapipe==0.10.21``) reads those JPEGs back with OpenCV, converts
@@ -78,7 +78,7 @@ def render(data: Path) -> None:
     import cv2
 
     sys.path.insert(0, str(REPO))
-    from app.bench.act_it_out import make_performance, render_frames
+    from lab.bench.act_it_out import make_performance, render_frames
     from retrieval.library import read_labels
 
     rows = {r.trial: r for r in read_labels(data)}

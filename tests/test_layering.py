@@ -67,10 +67,6 @@ RETRIEVAL_ALLOWED: dict[str, tuple[str, ...]] = {
     "retrieval.library": (
         ERRORS, "retrieval.motion", "retrieval.features", "retrieval.codes", "retrieval.dtw", "retrieval.search",
     ),
-    "retrieval.experiment": (
-        ERRORS, "retrieval.motion", "retrieval.features", "retrieval.codes", "retrieval.dtw", "retrieval.search",
-        "retrieval.library",
-    ),
     # animation never uses the search (dtw, search, library, experiment)
     "retrieval.animation": (ERRORS, "retrieval.motion", "retrieval.features", "retrieval.codes"),
 }
@@ -107,9 +103,12 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "app.ui": (*APP_BASE, "app.story", "app.services", "app.scene", "ar.scene", *RETRIEVAL_PRODUCT,
                "ar",  # ar core: the Kivy camera is an ar.camera_sources.CameraSource (issue 13)
                "ar.body"),  # "Act it out": the body skeleton drawn over the camera preview (issue 18)
-    # harnesses: anything of the library, never the UI (bench) or the commands
-    "app.bench": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene"),
-    "app.stress": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene", "app.ui"),
+    # the lab (lab/): the research experiment on retrieval only; the harnesses on anything of
+    # the product, never the commands (bench never the UI)
+    "lab": (),
+    "lab.experiment": (*RETRIEVAL_ALL,),
+    "lab.bench": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene", "lab.experiment"),
+    "lab.stress": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene", "app.ui"),
     "app.commands": tuple(u for u in UNITS if u not in ("app", "app.cli", "app.commands")),
     "app.cli": ("app.commands", ERRORS),
 }
@@ -123,6 +122,7 @@ FORBIDDEN_THIRD_PARTY: dict[str, tuple[str, ...]] = {
     "ar.scene": ("kivy", "pyrender", "OpenGL", "trimesh", "tqdm", "dtaidistance"),
     "ar.render": ("kivy",),
     "ar.closed_loop": ("kivy",),
+    "lab.experiment": (*_NO_UI, "tqdm", "dtaidistance", "PIL", "imageio", "imageio_ffmpeg"),
     "app.paths": ("kivy", "pyrender", "OpenGL", "trimesh", "cv2"),
     "app.progress": ("kivy", "pyrender", "OpenGL", "trimesh", "cv2"),
     "app.story": _NO_UI,
@@ -139,7 +139,7 @@ ONLY_IMPORTED_BY: dict[str, tuple[str, ...]] = {
 }
 
 #: Harness packages, and the units that may import them.
-HARNESSES = ("app.bench", "app.stress")
+HARNESSES = ("lab", "lab.experiment", "lab.bench", "lab.stress")
 HARNESS_USERS = ("app.commands", "app.cli")
 
 #: Imports of another retrieval layer go through its package (`from retrieval.dtw import
@@ -231,14 +231,14 @@ def third_party_offences(
 
 
 def harness_offences(modules: Mapping[str, Module], root: Path = REPO) -> list[str]:
-    """Imports of app.bench / app.stress from outside the commands (harnesses may use
-    their own modules)."""
+    """Imports of the lab (lab.*) from outside the commands (the lab may use its own
+    modules)."""
     out = []
     for module in modules.values():
         source = unit_of(module.name)
         for imp in module.imports:
             target = unit_of(imp.target)
-            if target in HARNESSES and source != target and source not in HARNESS_USERS:
+            if target in HARNESSES and source not in HARNESSES and source not in HARNESS_USERS:
                 out.append(f"{imp.where(root)}: {module.name} imports the harness {imp.target}: {imp.statement}")
             if target == "app.commands" and source not in ("app.commands", "app.cli"):
                 out.append(f"{imp.where(root)}: {module.name} imports the command module {imp.target}")
@@ -391,7 +391,7 @@ def test_layers_keep_off_forbidden_third_party_modules(modules):
 
 def test_only_commands_import_the_harnesses(modules):
     offences = harness_offences(modules)
-    assert not offences, _report("imports of app.bench/app.stress/app.commands outside app.commands", offences, "")
+    assert not offences, _report("imports of lab.bench/lab.stress/app.commands outside app.commands", offences, "")
 
 
 def test_other_retrieval_layers_are_imported_through_their_package(modules):
@@ -634,7 +634,7 @@ def test_rules_name_only_known_units():
         assert set(allowed) <= set(UNITS), (unit, sorted(set(allowed) - set(UNITS)))
     assert set(FORBIDDEN_THIRD_PARTY) <= set(UNITS)
     for unit in ("retrieval.animation",):
-        assert not {"retrieval.dtw", "retrieval.search", "retrieval.library", "retrieval.experiment"} & set(
+        assert not {"retrieval.dtw", "retrieval.search", "retrieval.library", "lab.experiment"} & set(
             ALLOWED[unit]
         )
     assert all(is_storybeam(u) for u in UNITS)

@@ -1,7 +1,7 @@
 """`storybeam bench TARGET`: every benchmark and profile, one sub-target each.
 
 Every target prints its table and, with ``--json OUT``, writes its full result as JSON.
-The harnesses live in :mod:`app.bench`; a target joins by adding an ``_add_*`` function
+The harnesses live in :mod:`lab.bench`; a target joins by adding an ``_add_*`` function
 to :data:`TARGETS`. The harness modules are imported only when their target runs, so
 ``storybeam --help`` stays light.
 """
@@ -62,7 +62,7 @@ def _fps(text: str) -> float:
 
 
 # ------------------------------------------------------------------------- retrieval
-RETRIEVAL_DOC = """Retrieval speed (app/bench/retrieval.py), per query, interleaved, one core: the
+RETRIEVAL_DOC = """Retrieval speed (lab/bench/retrieval.py), per query, interleaved, one core: the
 fast search against a UCR-suite-style exact rival and the seed's brute force on the same
 code distance (the headline), and float-feature DTW (brute force, dtaidistance pruned) as
 another distance; on the paper protocol, a CMU-sized derived library and one ten times
@@ -83,8 +83,8 @@ def _add_retrieval(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_retrieval(args: argparse.Namespace) -> int:
-    # deferred: app.bench.retrieval loads numba, tqdm and the whole retrieval stack
-    from app.bench.retrieval import format_report, run_retrieval_bench
+    # deferred: lab.bench.retrieval loads numba, tqdm and the whole retrieval stack
+    from lab.bench.retrieval import format_report, run_retrieval_bench
 
     out = run_retrieval_bench(args.data, fps=args.fps, scale_fps=args.scale_fps, quick=args.quick, dims=args.dims,
                               plot=args.plot, progress=not args.quiet)
@@ -93,7 +93,7 @@ def _run_retrieval(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------- ar
 AR_DOC = """AR tracking accuracy, jitter, landing error and timing on synthetic camera frames
-(app/bench/ar.py): per condition (clean, blur, low light, occlusion, ...), the board pose
+(lab/bench/ar.py): per condition (clean, blur, low light, occlusion, ...), the board pose
 error, detection rate, filtered jitter, projected landing error and detect/render times."""
 
 
@@ -141,7 +141,7 @@ def kivy_gl_renderer_2x():
 def _run_ar(args: argparse.Namespace) -> int:
     from tqdm import tqdm  # deferred: only the benchmarks draw bars
 
-    from app.bench.ar import (  # deferred: loads OpenCV and pyrender
+    from lab.bench.ar import (  # deferred: loads OpenCV and pyrender
         FRAME_RENDERERS,
         BenchConfig,
         default_conditions,
@@ -202,7 +202,7 @@ def _run_ar(args: argparse.Namespace) -> int:
 
 
 # ------------------------------------------------------------------------ animation
-ANIMATION_DOC = """The animation numbers quoted in docs/animation.md (app/bench/animation.py): path
+ANIMATION_DOC = """The animation numbers quoted in docs/animation.md (lab/bench/animation.py): path
 following and foot skate of every bundled walk and run per character (and at human
 scale), code-table transitions against random ones, retargeting of one clip per shared
 skeleton (when the shared CMU data is present), and the character render at 640x480."""
@@ -217,7 +217,7 @@ def _add_animation(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_animation(args: argparse.Namespace) -> int:
-    from app.bench.animation import (  # deferred: loads pyrender and the retrieval stack
+    from lab.bench.animation import (  # deferred: loads pyrender and the retrieval stack
         check_characters,
         format_summary,
         run_animation_bench,
@@ -231,7 +231,7 @@ def _run_animation(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------------- dtw-kernels
 DTW_KERNELS_DOC = """Nanoseconds per DTW cell for StoryBeam's kernels, with dtaidistance's C code as a
-peer (app/bench/dtw_kernels.py): one pair of smooth 17-D random walks of --frames frames,
+peer (lab/bench/dtw_kernels.py): one pair of smooth 17-D random walks of --frames frames,
 each kernel warmed up once and timed --repeat times (median)."""
 
 
@@ -242,15 +242,15 @@ def _add_dtw_kernels(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_dtw_kernels(args: argparse.Namespace) -> int:
-    # deferred: app.bench.dtw_kernels loads numba and the DTW kernels
-    from app.bench.dtw_kernels import format_table, run_dtw_kernels_bench
+    # deferred: lab.bench.dtw_kernels loads numba and the DTW kernels
+    from lab.bench.dtw_kernels import format_table, run_dtw_kernels_bench
 
     result = run_dtw_kernels_bench(frames=args.frames, repeat=args.repeat)
     return _finish(args, result, format_table(result))
 
 
 # ------------------------------------------------------------------------ motion-io
-MOTION_IO_DOC = """Time loading every motion listed in a folder's labels.csv (app/bench/motion_io.py):
+MOTION_IO_DOC = """Time loading every motion listed in a folder's labels.csv (lab/bench/motion_io.py):
 --repeat passes, the skeleton cache cleared before each, best pass reported."""
 
 
@@ -262,15 +262,15 @@ def _add_motion_io(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_motion_io(args: argparse.Namespace) -> int:
-    # deferred: app.bench.motion_io loads the motion parsers
-    from app.bench.motion_io import DEFAULT_DATA, format_table, run_motion_io_bench
+    # deferred: lab.bench.motion_io loads the motion parsers
+    from lab.bench.motion_io import DEFAULT_DATA, format_table, run_motion_io_bench
 
     result = run_motion_io_bench(args.data or DEFAULT_DATA, repeat=args.repeat)
     return _finish(args, result, format_table(result))
 
 
 # ------------------------------------------------------------------ numpy-retrieval
-NUMPY_RETRIEVAL_DOC = """The numpy-only search path (Android: no numba), app/bench/numpy_retrieval.py:
+NUMPY_RETRIEVAL_DOC = """The numpy-only search path (Android: no numba), lab/bench/numpy_retrieval.py:
 3-fold 1-NN on a labelled folder, the fast exact search with and without the range-cover
 bound against the seed's method, all on the numpy back-end."""
 
@@ -284,8 +284,8 @@ def _add_numpy_retrieval(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_numpy_retrieval(args: argparse.Namespace) -> int:
-    # deferred: app.bench.numpy_retrieval loads the retrieval stack
-    from app.bench.numpy_retrieval import format_table, run_numpy_retrieval_bench
+    # deferred: lab.bench.numpy_retrieval loads the retrieval stack
+    from lab.bench.numpy_retrieval import format_table, run_numpy_retrieval_bench
 
     kw = {"folder": args.folder} if args.folder else {}
     result = run_numpy_retrieval_bench(fps=args.fps, progress=not args.quiet, **kw)
@@ -294,7 +294,7 @@ def _run_numpy_retrieval(args: argparse.Namespace) -> int:
 
 # -------------------------------------------------------------- fast-search-profile
 FAST_SEARCH_PROFILE_DOC = """Where the fast exact search spends its time, and what the range-cover bound buys
-(app/bench/fast_search_profile.py): the paper protocol's folds searched with the bound on
+(lab/bench/fast_search_profile.py): the paper protocol's folds searched with the bound on
 and off (interleaved, answers must match), then the default search's stages timed."""
 
 
@@ -307,15 +307,15 @@ def _add_fast_search_profile(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_fast_search_profile(args: argparse.Namespace) -> int:
-    # deferred: app.bench.fast_search_profile loads numba and the search kernels
-    from app.bench.fast_search_profile import format_report, run_fast_search_profile
+    # deferred: lab.bench.fast_search_profile loads numba and the search kernels
+    from lab.bench.fast_search_profile import format_report, run_fast_search_profile
 
     result = run_fast_search_profile(args.data, fps=args.fps, progress=not args.quiet)
     return _finish(args, result, format_report(result))
 
 
 # ---------------------------------------------------------------------- pose-search
-POSE_SEARCH_DOC = """Search by pose (app/bench/pose_search.py): the pose at the most characteristic frame
+POSE_SEARCH_DOC = """Search by pose (lab/bench/pose_search.py): the pose at the most characteristic frame
 of every jump, kick and run clip, its own clip held back; top-1 class accuracy per class
 and search_ms (features to answer), beside the same queries refined over every clip."""
 
@@ -331,8 +331,8 @@ def _add_pose_search(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_pose_search(args: argparse.Namespace) -> int:
-    # deferred: app.bench.pose_search loads numba and the retrieval stack
-    from app.bench.pose_search import format_report, run_pose_search_bench
+    # deferred: lab.bench.pose_search loads numba and the retrieval stack
+    from lab.bench.pose_search import format_report, run_pose_search_bench
 
     data = args.data or SHARED_CMU
     if not Path(data).is_dir():
@@ -342,7 +342,7 @@ def _run_pose_search(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------- storybeam-scale
-STORYBEAM_SCALE_DOC = """The product's search method at library scale (app/bench/storybeam_scale.py, issue 12):
+STORYBEAM_SCALE_DOC = """The product's search method at library scale (lab/bench/storybeam_scale.py, issue 12):
 a derived library of >= --clips clips and >= --hours hours at 30 fps with the storybeam
 features kept, StoryBeamSearcher fitted on it, the 1-NN of every held-out real CMU clip
 timed on one core; exact DTW on the same features over the whole library on the first
@@ -360,7 +360,7 @@ def _add_storybeam_scale(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_storybeam_scale(args: argparse.Namespace) -> int:
-    from app.bench.storybeam_scale import format_table, run_storybeam_scale_bench  # deferred: numba
+    from lab.bench.storybeam_scale import format_table, run_storybeam_scale_bench  # deferred: numba
 
     if not args.hours >= 0:
         raise StoryBeamError(f"--hours {args.hours:g}: must be 0 or more")
@@ -373,7 +373,7 @@ def _run_storybeam_scale(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------- act-it-out
-ACT_IT_OUT_DOC = """"Act it out" end to end (app/bench/act_it_out.py, docs/act-it-out.md): synthetic
+ACT_IT_OUT_DOC = """"Act it out" end to end (lab/bench/act_it_out.py, docs/act-it-out.md): synthetic
 performances of --limit trials (a human-proportioned figure and the kid character, 5
 classes, in place, facing the camera; the person also turned 30 degrees and before a
 cluttered background), rendered at 640x480 and 30 fps, tracked by ar.body on one core,
@@ -398,7 +398,7 @@ def _add_act_it_out(sub: argparse._SubParsersAction) -> None:
 
 
 def _run_act_it_out(args: argparse.Namespace) -> int:
-    from app.bench.act_it_out import format_table, run_act_it_out_bench  # deferred: pyrender, ar.body
+    from lab.bench.act_it_out import format_table, run_act_it_out_bench  # deferred: pyrender, ar.body
 
     data = args.data or SHARED_CMU
     if not (Path(data) / "labels.csv").is_file():

@@ -186,7 +186,7 @@ def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, 
 def run(args) -> int:
     from retrieval.library import load_dataset, read_labels  # deferred: numpy/numba stack only for this command
     # deferred: the experiment layer (numpy, numba kernels) only for this command
-    from retrieval.experiment import (
+    from lab.experiment import (
         METHODS,
         SEED_METHODS,
         SPLITS,

@@ -24,7 +24,7 @@ from typing import Callable
 from tqdm import tqdm
 
 from app.paths import MOTIONS_DIR, SHARED_CMU
-from app.stress.atheris_fuzz import require_atheris, run_atheris_campaign  # cheap: stdlib, app.paths, errors
+from lab.stress.atheris_fuzz import require_atheris, run_atheris_campaign  # cheap: stdlib, app.paths, errors
 from retrieval.errors import StoryBeamError
 
 #: The harnesses run by default (``--only`` picks a subset).
@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_fuzz(args: argparse.Namespace, work: Path) -> dict:
-    from app.stress import fuzz_motion as fuzz  # deferred: the stress layer (numpy, the loaders) only when run
+    from lab.stress import fuzz_motion as fuzz  # deferred: the stress layer (numpy, the loaders) only when run
 
     seeds = fuzz.collect_seeds(SHARED_CMU if SHARED_CMU.is_dir() else None, MOTIONS_DIR / "bvh")
     with tqdm(total=args.fuzz_inputs, desc="fuzz motion files", unit="input", file=sys.stderr) as bar:
@@ -145,25 +145,25 @@ def _run_atheris(args: argparse.Namespace, work: Path) -> dict:
 
 
 def _run_kill(args: argparse.Namespace, work: Path) -> dict:
-    from app.stress.kill import run_kill_campaign  # deferred: the stress layer only when run
+    from lab.stress.kill import run_kill_campaign  # deferred: the stress layer only when run
 
     return run_kill_campaign(work, kills=args.kills, seconds=args.seconds, seed=args.seed)
 
 
 def _run_packages(args: argparse.Namespace, work: Path) -> dict:
-    from app.stress.files import run_bad_file_campaign  # deferred: the stress layer (OpenCV) only when run
+    from lab.stress.files import run_bad_file_campaign  # deferred: the stress layer (OpenCV) only when run
 
     return run_bad_file_campaign(work, seconds=args.seconds, seed=args.seed)
 
 
 def _run_tracking(args: argparse.Namespace, work: Path) -> dict:
-    from app.stress.tracking import run_tracking_campaign  # deferred: the stress layer (OpenCV) only when run
+    from lab.stress.tracking import run_tracking_campaign  # deferred: the stress layer (OpenCV) only when run
 
     return run_tracking_campaign(frames=args.frames, seed=args.seed)
 
 
 def _run_power_loss(args: argparse.Namespace, work: Path) -> dict:
-    from app.stress.power_loss import run_power_loss  # deferred: the stress layer (OpenCV, strace) only when run
+    from lab.stress.power_loss import run_power_loss  # deferred: the stress layer (OpenCV, strace) only when run
 
     total = args.workloads * args.cuts * 7 + args.cuts * 7
     with tqdm(total=total, desc="power-loss crash states", unit="state", file=sys.stderr) as bar:
@@ -186,13 +186,13 @@ def _power_loss_command(args: argparse.Namespace) -> int:
 
 
 def _run_monkey(args: argparse.Namespace, work: Path) -> dict:
-    from app.stress.monkey import run_monkey  # deferred: the stress layer only when run (Kivy runs in a child)
+    from lab.stress.monkey import run_monkey  # deferred: the stress layer only when run (Kivy runs in a child)
 
     return run_monkey(work, seconds=args.seconds, seed=args.seed, progress=True)
 
 
 def _run_monkey_teacher(args: argparse.Namespace, work: Path) -> dict:
-    from app.stress.monkey import run_monkey  # deferred: the stress layer only when run (Kivy runs in a child)
+    from lab.stress.monkey import run_monkey  # deferred: the stress layer only when run (Kivy runs in a child)
 
     return run_monkey(work, seconds=args.seconds, seed=args.seed, progress=True, teacher=True)
 

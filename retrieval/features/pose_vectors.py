@@ -1,5 +1,5 @@
 """Weighted, heading-aligned pose vectors: the frame representation of the Forbes–Fiume
-baseline (see :mod:`retrieval.experiment.baselines`).
+baseline (see :mod:`lab.experiment.baselines`).
 
 Pose vectors (:func:`pose_frames`): the canonical joints (18) relative to the hips, turned
 about the vertical so the hips face +Z (heading-invariant, like the distances), divided by

@@ -1,4 +1,4 @@
-"""app.bench.augment: feature-space mirroring, time scaling and same-class splicing keep
+"""lab.bench.augment: feature-space mirroring, time scaling and same-class splicing keep
 what they promise -- mirroring swaps exactly the left/right feature pairs, time scaling
 interpolates to round(T*factor) frames, a splice keeps a contiguous stretch of at least
 half of each part, and a derived take is made of its own class's frames only."""
@@ -9,8 +9,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from app.bench import augment
-from app.bench.augment import TIME_SCALE_RANGE, augmented_take, mirror, mirror_permutation, splice, time_scale
+from lab.bench import augment
+from lab.bench.augment import TIME_SCALE_RANGE, augmented_take, mirror, mirror_permutation, splice, time_scale
 from retrieval.errors import StoryBeamError
 from retrieval.features import get_feature_set
 
@@ -56,7 +56,7 @@ def test_mirror_negates_the_turning_rate():
 
 
 def test_derived_takes_are_the_scale_librarys_stream():
-    from app.bench.scale_library import derived_takes
+    from lab.bench.scale_library import derived_takes
 
     rng = np.random.default_rng(0)
     sources = [SimpleNamespace(label=lab, fps=30.0, features=rng.normal(size=(40 + 5 * i, len(NAMES))))

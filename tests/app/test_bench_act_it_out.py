@@ -18,7 +18,7 @@ VARIANT_KEYS = {"variant", "figure", "turn_deg", "clutter", "takes", "frames", "
 
 
 def test_choose_trials_is_stratified_and_repeatable(cmu_dir):
-    from app.bench.act_it_out import CLASS_SHARE, choose_trials
+    from lab.bench.act_it_out import CLASS_SHARE, choose_trials
     from retrieval.library import read_labels
 
     rows = read_labels(cmu_dir)

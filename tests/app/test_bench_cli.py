@@ -242,7 +242,7 @@ def test_bench_storybeam_scale_on_the_bundled_library(tmp_path, capsys):
 
 
 def test_storybeam_scale_with_the_whole_library_shortlisted_is_exact_dtw():
-    from app.bench.storybeam_scale import run_storybeam_scale_bench
+    from lab.bench.storybeam_scale import run_storybeam_scale_bench
 
     res = run_storybeam_scale_bench(MOTIONS_DIR, min_clips=25, min_hours=0.0, baseline_queries=4,
                                     shortlist=10_000, progress=False)

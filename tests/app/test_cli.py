@@ -17,7 +17,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 import app.commands  # noqa: E402
 from app.cli import build_parser, command_modules, main  # noqa: E402
 from app.commands import export_cmd, stress_cmd  # noqa: E402
-from app.stress import atheris_fuzz  # noqa: E402
+from lab.stress import atheris_fuzz  # noqa: E402
 from app.story import Character, MotionChoice, Scene, Story  # noqa: E402
 from retrieval.library.bundle import LABEL_COLUMNS, SELECTION  # noqa: E402
 from retrieval.motion import load_motion  # noqa: E402

@@ -1,4 +1,4 @@
-"""app.bench.scale_library: the derived library reaches both size targets, holds valid
+"""lab.bench.scale_library: the derived library reaches both size targets, holds valid
 codes of its source classes in proportion, is reproducible from its seed, and is cached
 as an .npz under $STORYBEAM_CACHE/scale (a damaged entry is rebuilt)."""
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.bench import scale_library
-from app.bench.scale_library import ScaleLibrary, build_scale_library, default_cache_dir
+from lab.bench import scale_library
+from lab.bench.scale_library import ScaleLibrary, build_scale_library, default_cache_dir
 from retrieval.codes import Quantizer
 from retrieval.errors import StoryBeamError
 from retrieval.library import Clip

@@ -1,4 +1,4 @@
-"""The benchmark's UCR-suite-style rival (app/bench/ucr_rival.py) is exact and really prunes:
+"""The benchmark's UCR-suite-style rival (lab/bench/ucr_rival.py) is exact and really prunes:
 its answers equal the seed's brute force (same clip, same distance bit for bit, ties to
 the lower index), its bounds never exceed the seed's DTW, on random codes, on quantised
 smooth walks and on real CMU clips."""
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.bench.ucr_rival import RivalError, UCRRival
+from lab.bench.ucr_rival import RivalError, UCRRival
 from retrieval.codes import DiffTable, Quantizer, full_table
 from retrieval.dtw import HAVE_NUMBA, dtw_codes, run_length_decode
 from retrieval.search import FastSearcher, brute_force
@@ -80,7 +80,7 @@ def test_rival_prunes_and_agrees_with_the_fast_search_on_quantised_walks(strateg
 
 @pytest.mark.parametrize("strategy", ["cascade", "sorted"])
 def test_rival_on_real_cmu_clips(cmu_dir, strategy):
-    from retrieval.experiment import stack_frames, stratified_subset
+    from lab.experiment import stack_frames, stratified_subset
     from retrieval.library import load_dataset, read_labels
 
     clips = stratified_subset(load_dataset(cmu_dir, fps=30, rows=read_labels(cmu_dir)), 30, seed=5)
@@ -113,7 +113,7 @@ def test_float_rival_bounds_and_answers_equal_brute_force():
     UCR order): its LB_Kim / bounding-box LB_Keogh never exceed the project's float DTW,
     and its nearest clip and distance are brute force's."""
     pytest.importorskip("dtaidistance")
-    from app.bench.retrieval import DtaidistancePruned
+    from lab.bench.retrieval import DtaidistancePruned
     from retrieval.dtw import dtw_features
 
     rng = np.random.default_rng(6)

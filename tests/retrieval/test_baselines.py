@@ -1,4 +1,4 @@
-"""The research's baselines (retrieval/experiment/baselines.py): exact DTW on features and
+"""The research's baselines (lab/experiment/baselines.py): exact DTW on features and
 Forbes–Fiume (weighted-PCA pose space, k-means++ / k-means clusters, k-d tree, cluster DTW),
 each checked against a brute-force reference."""
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from retrieval.dtw import dtw_codes, dtw_features
-from retrieval.experiment import ExactDTWMatcher, ForbesFiumeMatcher, MatcherError, kmeans_pp_seeds
+from lab.experiment import ExactDTWMatcher, ForbesFiumeMatcher, MatcherError, kmeans_pp_seeds
 from retrieval.library import Clip, clip_from_motion
 from tests.support.synthetic_motion import make_motion, make_skeleton
 

@@ -322,8 +322,8 @@ def test_range_bound_and_search_on_real_cmu_clips(cmu_dir):
     """Real motion codes (shared CMU clips, 30 fps): the bound stays below the seed's DTW
     for every pair, and the search with it returns the seed's neighbours and distances."""
     from retrieval.library import load_dataset, read_labels
-    from retrieval.experiment import stratified_subset
-    from retrieval.experiment import stack_frames
+    from lab.experiment import stratified_subset
+    from lab.experiment import stack_frames
 
     clips = stratified_subset(load_dataset(cmu_dir, fps=30, rows=read_labels(cmu_dir)), 24, seed=2)
     q = Quantizer.fit(stack_frames([c.features for c in clips[6:]]), 6)

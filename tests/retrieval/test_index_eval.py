@@ -108,7 +108,7 @@ def test_index_query_save_load(library, tmp_path):
 
 
 def test_folds_are_stratified_and_disjoint():
-    from retrieval.experiment import stratified_folds
+    from lab.experiment import stratified_folds
 
     labels = ["a"] * 7 + ["b"] * 5 + ["c"] * 3
     parts = stratified_folds(labels, 3, seed=1)
@@ -121,7 +121,7 @@ def test_folds_are_stratified_and_disjoint():
 
 def test_evaluation_separates_the_synthetic_classes(library):
     from retrieval.library import load_dataset
-    from retrieval.experiment import evaluate
+    from lab.experiment import evaluate
 
     clips = load_dataset(library, fps=30, pose=True)
     res = evaluate(clips, ["quantized", "dtw", "forbes"], folds=3, dims=3, forbes_clusters=16)
@@ -249,7 +249,7 @@ def test_cli_reports_bad_input_as_one_line(library, capsys):
 
 
 def test_stratified_subset_keeps_class_shares():
-    from retrieval.experiment import EvaluationError, stratified_subset
+    from lab.experiment import EvaluationError, stratified_subset
     from retrieval.library import Clip
 
     clips = [Clip(f"t{i}", lab, np.zeros((2, 17)), None, 30.0) for i, lab in enumerate(["a"] * 60 + ["b"] * 30 + ["c"] * 10)]
@@ -286,7 +286,7 @@ def test_fast_quantized_method_finds_exactly_the_seed_methods_neighbours(cmu_dir
     (and so the same accuracy) as the seed's full-table search — on real CMU clips, where
     near-ties make a wrong bound or a wrong table entry show."""
     from retrieval.library import load_dataset, read_labels
-    from retrieval.experiment import evaluate, stratified_subset
+    from lab.experiment import evaluate, stratified_subset
 
     rows = read_labels(cmu_dir)
     clips = load_dataset(cmu_dir, fps=15, rows=rows)

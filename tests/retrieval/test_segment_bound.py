@@ -119,7 +119,7 @@ def test_search_with_the_segment_filter_equals_brute_force_on_long_queries(table
 
 
 def test_segment_cover_and_search_on_real_cmu_clips(cmu_dir):
-    from retrieval.experiment import stack_frames, stratified_subset
+    from lab.experiment import stack_frames, stratified_subset
     from retrieval.library import load_dataset, read_labels
 
     clips = stratified_subset(load_dataset(cmu_dir, fps=30, rows=read_labels(cmu_dir)), 24, seed=4)

@@ -10,8 +10,8 @@ import pytest
 
 from retrieval.animation import BodyProportions, canonical_skeleton, retarget
 from retrieval.dtw import dtw_features
-from retrieval.experiment import evaluate, subject_folds
-from retrieval.experiment.evaluation import EvaluationError
+from lab.experiment import evaluate, subject_folds
+from lab.experiment.evaluation import EvaluationError
 from retrieval.features import MR17, STORYBEAM, get_feature_set, heading_rate, motion_features
 from retrieval.errors import StoryBeamError
 from retrieval.library import (

@@ -129,7 +129,7 @@ def test_library_bounds_equal_the_per_clip_bounds_and_never_exceed_the_dtw(table
 
 @pytest.mark.skipif(not HAVE_NUMBA, reason="compares with the compiled path")
 def test_library_bounds_equal_the_compiled_bounds(tables):
-    from app.bench.ucr_rival import UCRRival
+    from lab.bench.ucr_rival import UCRRival
 
     _, diff = tables
     rng = np.random.default_rng(14)
@@ -157,7 +157,7 @@ def test_numpy_search_equals_the_compiled_search_and_brute_force(tables, k):
 
 
 def test_numpy_search_on_real_cmu_clips(cmu_dir):
-    from retrieval.experiment import stack_frames, stratified_subset
+    from lab.experiment import stack_frames, stratified_subset
     from retrieval.library import load_dataset, read_labels
 
     clips = stratified_subset(load_dataset(cmu_dir, fps=30, rows=read_labels(cmu_dir)), 40, seed=3)

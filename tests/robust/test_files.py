@@ -10,7 +10,7 @@ import pytest
 
 from app.story.storage import ProfileStore, StorageError, read_package
 from app.story.model import Story, StoryError
-from app.stress import files
+from lab.stress import files
 from ar.calibration import CameraCalibration, ProjectorCalibration
 from ar.errors import CalibrationError
 

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from app.stress import monkey
+from lab.stress import monkey
 
 
 @pytest.fixture(scope="module")

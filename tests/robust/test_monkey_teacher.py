@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.stress import monkey
+from lab.stress import monkey
 
 
 @pytest.fixture(scope="module")

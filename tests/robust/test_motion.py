@@ -11,7 +11,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.stress import fuzz_motion as fuzz
+from lab.stress import fuzz_motion as fuzz
 
 from retrieval.motion.formats import textfile
 from retrieval.motion.formats import load_amc, load_asf

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from app.stress import power_loss as pl
-from app.stress.power_loss import Op
+from lab.stress import power_loss as pl
+from lab.stress.power_loss import Op
 
 needs_strace = pytest.mark.skipif(shutil.which("strace") is None,
                                   reason="strace is not installed (scripts/setup.sh installs it)")

@@ -9,7 +9,7 @@ import pytest
 
 from app.story.storage import ProfileStore, StorageError
 from app.story.model import Story
-from app.stress import files, kill
+from lab.stress import files, kill
 
 
 def test_sigkill_during_saves_loses_no_story(tmp_path):

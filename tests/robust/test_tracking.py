@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.stress import tracking as stress
+from lab.stress import tracking as stress
 from ar.filtering import PoseTracker
 from ar.pose import RegionPoseEstimator
 

@@ -1,8 +1,8 @@
 """The "Act it out" test video: a human-proportioned figure walking in place, facing the camera.
 
 ``python -m tests.support.act_video [OUT.mp4] [--trial 07_05] [--data ../shared/data/cmu]``
-renders it with the bench's synthetic filming (:func:`app.bench.act_it_out.make_performance`
-and :func:`app.bench.act_it_out.render_frames`: the ``"person"`` design 1.7 m tall,
+renders it with the bench's synthetic filming (:func:`lab.bench.act_it_out.make_performance`
+and :func:`lab.bench.act_it_out.render_frames`: the ``"person"`` design 1.7 m tall,
 pyrender at 640x480, 30 fps, a level camera 3.6 m in front, plain wall and floor) and writes
 an MP4 (OpenCV's ``mp4v``). The stored copy, tests/app/data/act_walk_07_05.mp4, was made
 by this module; trial 07_05 (a walk of subject 07) is not in the bundled library, so the
@@ -24,7 +24,7 @@ def render_walk_video(out: Path, trial: str = TRIAL, data: Path | None = None) -
     performed by the "person" figure into the MP4 ``out``; returns ``out``."""
     import cv2
 
-    from app.bench.act_it_out import FPS, HEIGHT, WIDTH, make_performance, render_frames
+    from lab.bench.act_it_out import FPS, HEIGHT, WIDTH, make_performance, render_frames
     from app.paths import SHARED_CMU
     from retrieval.library import read_labels
 

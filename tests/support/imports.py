@@ -31,7 +31,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 
 #: The library packages the scan covers (tests and scripts are not library code).
-PACKAGES = ("retrieval", "ar", "app")
+PACKAGES = ("retrieval", "ar", "app", "lab")
 
 #: Package-level nodes of the architecture, most specific first where they nest. A module
 #: belongs to the longest unit that is a prefix of its name (``retrieval.motion.formats.bvh``
@@ -49,7 +49,6 @@ UNITS = (
     "retrieval.dtw",
     "retrieval.search",
     "retrieval.library",
-    "retrieval.experiment",
     "retrieval.animation",
     "ar",
     "ar.body",
@@ -65,8 +64,10 @@ UNITS = (
     "app.ui",
     "app.commands",
     "app.cli",
-    "app.bench",
-    "app.stress",
+    "lab",
+    "lab.experiment",
+    "lab.bench",
+    "lab.stress",
 )
 
 _MARKER = re.compile(r"#.*\b(optional|deferred):")

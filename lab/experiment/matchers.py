@@ -2,7 +2,7 @@
 building) and answers ``distances(query)`` = one DTW distance per reference (search).
 
 The seed's method lives here (:class:`QuantizedMatcher`); the research's baselines are in
-:mod:`retrieval.experiment.baselines`. All share this interface so the evaluation times exactly the
+:mod:`lab.experiment.baselines`. All share this interface so the evaluation times exactly the
 same phases for every method: ``fit`` is building, ``distances`` (including turning the
 query's features into codes) is search.
 """

@@ -40,8 +40,8 @@ import numpy as np
 from retrieval.codes import code_table, full_table
 from retrieval.dtw import dtw_codes, dtw_features
 from retrieval.errors import StoryBeamError
-from retrieval.experiment.baselines import ExactDTWMatcher, ForbesFiumeMatcher
-from retrieval.experiment.matchers import FastMatcher, QuantizedMatcher, StoryBeamMatcher
+from lab.experiment.baselines import ExactDTWMatcher, ForbesFiumeMatcher
+from lab.experiment.matchers import FastMatcher, QuantizedMatcher, StoryBeamMatcher
 from retrieval.features import MR17
 from retrieval.library import SHORTLIST, Clip, StoryBeamSearcher, dtw_features_abandon
 from retrieval.search import warm_up as warm_up_fast

@@ -1,6 +1,6 @@
 """Random-touch monkey test of the real app under offscreen Kivy.
 
-:func:`run_monkey` starts ``python -m app.stress.monkey DB OUT SECONDS SEED`` (one Kivy app
+:func:`run_monkey` starts ``python -m lab.stress.monkey DB OUT SECONDS SEED`` (one Kivy app
 per process: Kivy keeps global window state) and reads its ``result.json``. Inside, the
 real :class:`app.ui.app.StoryBeamApp` runs with a scheduled "monkey" that, every few
 frames, taps a random button of the current screen or open popup (60 %), taps a random
@@ -86,7 +86,7 @@ def run_monkey(work: Path, seconds: float = 60.0, seed: int = 0, timeout_margin_
         Path(f"{db}{suffix}").unlink(missing_ok=True)
     env = dict(os.environ, KIVY_NO_ARGS="1", SDL_VIDEODRIVER="offscreen",
                KIVY_HOME=str(work / "kivy_home"))
-    cmd = [sys.executable, "-m", "app.stress.monkey", str(db), str(out), str(seconds), str(seed),
+    cmd = [sys.executable, "-m", "lab.stress.monkey", str(db), str(out), str(seconds), str(seed),
            "teacher" if teacher else "child"]
     try:
         rc, tail = _run_with_bar(cmd, env, seconds, seconds + timeout_margin_s, progress)

@@ -1,6 +1,6 @@
 """A CMU-sized library (≥ 2 600 clips, ≥ 9 hours) of *derived* clips, stored as codes.
 
-Built from labelled clips by :mod:`app.bench.augment` (mirroring, time scaling 0.8–1.25,
+Built from labelled clips by :mod:`lab.bench.augment` (mirroring, time scaling 0.8–1.25,
 same-class splicing) and quantised with a quantiser fitted on the source clips' features;
 only the int16 codes are kept (about 2 bytes per frame), so the 9-hour library is a few MB
 and builds in seconds. It is cached as an .npz under ``$STORYBEAM_CACHE/scale`` (default
@@ -21,7 +21,7 @@ from typing import Iterator, Sequence
 import numpy as np
 from tqdm import tqdm
 
-from app.bench.augment import augmented_take
+from lab.bench.augment import augmented_take
 from retrieval.errors import StoryBeamError
 from retrieval.library import Clip
 from retrieval.codes import Quantizer
@@ -90,7 +90,7 @@ def derived_takes(sources: Sequence[Clip], min_clips: int, min_hours: float, see
 def build_scale_library(sources: Sequence[Clip], quantizer: Quantizer, min_clips: int = 2600,
                         min_hours: float = 9.0, seed: int = 0, cache: bool = True,
                         progress: bool = True) -> ScaleLibrary:
-    """Derived takes (see :mod:`app.bench.augment`) until both ``min_clips`` and
+    """Derived takes (see :mod:`lab.bench.augment`) until both ``min_clips`` and
     ``min_hours`` are reached; classes drawn in proportion to the source clips."""
     if not sources:
         raise StoryBeamError("scale library: no source clips")

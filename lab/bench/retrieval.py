@@ -7,12 +7,12 @@ medians and of totals:
 
 1. **same distance (look-up DTW over codes)** — the fast search
    (:mod:`retrieval.search.fast`), the seed's brute force (full table, every clip), and a
-   UCR-suite-style exact rival (:mod:`app.bench.ucr_rival`: LB_Kim, LB_Keogh both ways,
+   UCR-suite-style exact rival (:mod:`lab.bench.ucr_rival`: LB_Kim, LB_Keogh both ways,
    bound order, EAPrunedDTW-style early abandoning) in both of its strategies, the faster
    (lower total) on each data set being "the rival" of the ratios (``rival_strategy``)
    — on the paper protocol (stratified
    3-fold 1-NN over the labelled clips, 120 fps) and on a derived library
-   (:mod:`app.bench.scale_library`, ≥ 2 600 clips / 9 h, 30 fps) and a ten times bigger
+   (:mod:`lab.bench.scale_library`, ≥ 2 600 clips / 9 h, 30 fps) and a ten times bigger
    one; the three must give the same clip at the same distance on every query
    (``same_answers``). This is the headline.
 2. **float-feature DTW** (what a user would pick instead; *another distance*) — brute
@@ -20,7 +20,7 @@ medians and of totals:
    ``use_pruning=True`` and ``max_dist`` = best so far, in UCR order; the 1-NN accuracy
    of each distance on the protocol.
 3. **the ablations** of the fast search, through
-   :func:`retrieval.experiment.evaluation.evaluate` (total seconds per fold loop);
+   :func:`lab.experiment.evaluation.evaluate` (total seconds per fold loop);
 4. **latency against library size** (1×, 3×, 10× the derived library, the same queries
    for every method) and **memory** (table layouts, index bytes per clip).
 
@@ -37,15 +37,15 @@ from typing import Callable, Sequence
 import numpy as np
 from tqdm import tqdm
 
-from app.bench.scale_library import build_scale_library
-from app.bench.ucr_rival import STRATEGIES, UCRRival
+from lab.bench.scale_library import build_scale_library
+from lab.bench.ucr_rival import STRATEGIES, UCRRival
 from app.paths import MOTIONS_DIR, SHARED_CMU
 from app.progress import progress_bar
 from retrieval.codes import DiffTable, Quantizer, table_bytes
 from retrieval.dtw import HAVE_NUMBA, dtw_codes, dtw_features
 from retrieval.dtw.jit import numba
 from retrieval.errors import StoryBeamError
-from retrieval.experiment import FastMatcher, evaluate, make_matcher, stack_frames, stratified_folds
+from lab.experiment import FastMatcher, evaluate, make_matcher, stack_frames, stratified_folds
 from retrieval.library import Clip, load_dataset
 from retrieval.search import FastSearcher, SearchStats
 from retrieval.search import warm_up as warm_up_fast
@@ -57,7 +57,7 @@ BUNDLED_LIBRARY = MOTIONS_DIR
 #: Protocol rows: (method key in ``protocol``, label printed in the table, distance).
 PROTOCOL_ROWS = (
     ("fast", "fast exact search", "codes"),
-    ("ucr_rival", "UCR-suite-style rival (app/bench/ucr_rival.py)", "codes"),
+    ("ucr_rival", "UCR-suite-style rival (lab/bench/ucr_rival.py)", "codes"),
     ("quantized", "seed method (full table, every clip)", "codes"),
     ("dtw", "exact DTW on features (numba, every clip)", "float"),
     ("dtaidistance", "dtaidistance, euclidean, pruned, UCR order", "float"),
@@ -452,7 +452,7 @@ def run_retrieval_bench(data: str | Path | None = None, fps: float = 120.0, scal
         "query_ms_median_all_cores": float(np.median(many)),
         "query_ms_p95_all_cores": float(np.percentile(many, 95)),
         "library_note": ("derived from the non-query folds of the source clips by mirroring, time scaling "
-                         "0.8-1.25 and same-class splicing (app/bench/augment.py); codes only; the library is "
+                         "0.8-1.25 and same-class splicing (lab/bench/augment.py); codes only; the library is "
                          "the first library_clips clips of the big one"),
         "latency_queries": len(queries),
         "index_build_seconds": index_seconds,

@@ -1,6 +1,6 @@
 """Coverage-guided fuzzing of the BVH and ASF/AMC loaders with atheris (libFuzzer).
 
-Complements :mod:`app.stress.fuzz_motion` (structure-aware mutations): libFuzzer keeps the
+Complements :mod:`lab.stress.fuzz_motion` (structure-aware mutations): libFuzzer keeps the
 inputs that reach new branches of the instrumented ``retrieval`` code. The contract is the
 same: any input loads into a finite motion or raises
 :class:`~retrieval.errors.MotionFormatError`.
@@ -9,7 +9,7 @@ atheris is an optional developer tool (``pip install atheris``, or the ``fuzz`` 
 `storybeam stress --only atheris` runs :func:`run_atheris_campaign`, which starts this
 module as a child process::
 
-    python -m app.stress.atheris_fuzz -runs=20000 -max_total_time=60 -timeout=5 -rss_limit_mb=3000
+    python -m lab.stress.atheris_fuzz -runs=20000 -max_total_time=60 -timeout=5 -rss_limit_mb=3000
 
 A child, because libFuzzer ends its process when it is done, and because the loaders must
 be imported inside :func:`atheris.instrument_imports` to be instrumented -- something only
@@ -118,7 +118,7 @@ def main(argv: list[str]) -> None:  # pragma: no cover - runs in the child proce
 
     # deferred: the loaders must be first imported inside instrument_imports() to be instrumented
     with atheris.instrument_imports(include=["retrieval"]):
-        from app.stress import fuzz_motion  # deferred: imports the loaders, instrumented here
+        from lab.stress import fuzz_motion  # deferred: imports the loaders, instrumented here
 
     logging.getLogger("retrieval").setLevel(logging.ERROR)  # "ignoring data after ..." warnings
     work = Path(tempfile.mkdtemp(prefix="atheris-motion-"))

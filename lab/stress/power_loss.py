@@ -5,7 +5,7 @@ A kill keeps the operating system's page cache; a power cut, a flat battery or a
 stick pulled early does not. In the spirit of ALICE (Pillai et al., OSDI 2014) and
 CrashMonkey (Mohan et al., OSDI 2018):
 
-1. **Record.** A workload process (:func:`workload`, ``python -m app.stress.power_loss
+1. **Record.** A workload process (:func:`workload`, ``python -m lab.stress.power_loss
    workload ...``) drives the real product code through its public API: it creates,
    edits and deletes stories (:class:`~app.story.storage.ProfileStore`), stores assets,
    changes settings, exports and imports story packages, exports the activity CSV and
@@ -67,7 +67,7 @@ import retrieval.durable as durable  # (and its fsync_dir)
 from app.paths import REPO_ROOT
 from app.story.model import Story
 from app.story.storage import ProfileStore, StorageError, read_package
-from app.stress.kill import random_edit
+from lab.stress.kill import random_edit
 from ar.calibration import CameraCalibration
 from ar.errors import CalibrationError
 from retrieval.errors import StoryBeamError
@@ -525,7 +525,7 @@ def record(root: Path, seed: int, steps: int, weaken: str = "", work: Path | Non
     env = {**os.environ, "PYTHONPATH": str(repo) + os.pathsep + os.environ.get("PYTHONPATH", ""),
            "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
     cmd = [strace, "-f", "-qq", "-y", "-xx", "-s", str(1 << 24), "-e", f"trace={TRACED}", "-o", str(trace),
-           sys.executable, "-m", "app.stress.power_loss", "workload", str(root), str(acks), str(seed), str(steps),
+           sys.executable, "-m", "lab.stress.power_loss", "workload", str(root), str(acks), str(seed), str(steps),
            weaken, focus]
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=str(repo), timeout=600)
     if proc.returncode != 0:
@@ -880,7 +880,7 @@ def _main(argv: list[str]) -> int:
     if len(argv) >= 5 and argv[0] == "workload":
         workload(Path(argv[1]), Path(argv[2]), int(argv[3]), int(argv[4]), *argv[5:7])
         return 0
-    print("usage: python -m app.stress.power_loss workload ROOT ACKS SEED STEPS [WEAKEN [FOCUS]]", file=sys.stderr)
+    print("usage: python -m lab.stress.power_loss workload ROOT ACKS SEED STEPS [WEAKEN [FOCUS]]", file=sys.stderr)
     return 2
 
 

@@ -3,12 +3,12 @@
 evaluation."""
 from __future__ import annotations
 
-from retrieval.experiment.baselines import (
+from lab.experiment.baselines import (
     ExactDTWMatcher,
     ForbesFiumeMatcher,
     kmeans_pp_seeds,
 )
-from retrieval.experiment.evaluation import (
+from lab.experiment.evaluation import (
     METHODS,
     SEED_METHODS,
     SPLITS,
@@ -24,7 +24,7 @@ from retrieval.experiment.evaluation import (
     sweep_dims,
     warm_up,
 )
-from retrieval.experiment.matchers import (
+from lab.experiment.matchers import (
     FastMatcher,
     Matcher,
     MatcherError,

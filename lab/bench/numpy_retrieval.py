@@ -1,7 +1,7 @@
 """The numpy-only path (Android: no numba), ``storybeam bench numpy-retrieval [FOLDER] [FPS]``.
 
 Method: stratified 3-fold 1-NN (n = 6, seed 0) on a labelled folder (default: the
-bundled library at 30 fps) through :func:`retrieval.experiment.evaluate`, every method on
+bundled library at 30 fps) through :func:`lab.experiment.evaluate`, every method on
 the numpy back-end: the fast exact search with the range-cover bound (``fast_numpy``),
 the same without it (``fast_numpy_no_range``, the ablation) and the seed's method
 (``quantized``, full table, no pruning). Search seconds are summed over the folds and
@@ -13,10 +13,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
-from app.bench.retrieval import BUNDLED_LIBRARY
+from lab.bench.retrieval import BUNDLED_LIBRARY
 from app.progress import progress_bar
 from retrieval.errors import StoryBeamError
-from retrieval.experiment import FastMatcher, evaluate, make_matcher
+from lab.experiment import FastMatcher, evaluate, make_matcher
 from retrieval.library import Clip, load_dataset
 
 #: the methods compared, in table order
@@ -24,7 +24,7 @@ METHODS = ("fast_numpy", "fast_numpy_no_range", "quantized")
 
 
 class NumpyFastMatcher(FastMatcher):
-    """:class:`~retrieval.experiment.FastMatcher` on the numpy back-end, with the
+    """:class:`~lab.experiment.FastMatcher` on the numpy back-end, with the
     range-cover bound on or off."""
 
     def __init__(self, name: str, range_bound: bool = True, dims: int = 6):

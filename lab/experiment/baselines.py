@@ -1,4 +1,4 @@
-"""The research's two baselines, as matchers (see :mod:`retrieval.experiment.matchers`).
+"""The research's two baselines, as matchers (see :mod:`lab.experiment.matchers`).
 
 * :class:`ExactDTWMatcher` — plain DTW on the real-valued 17-D features with Euclidean
   frame distance (the accuracy ceiling the quantised method is judged against).
@@ -20,7 +20,7 @@ from scipy.cluster.vq import kmeans2
 from scipy.spatial import cKDTree
 
 from retrieval.dtw import dtw_codes, dtw_features
-from retrieval.experiment.matchers import MatcherError, stack_frames
+from lab.experiment.matchers import MatcherError, stack_frames
 from retrieval.library import Clip
 
 

@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from app.bench.retrieval import load_clips, set_threads
+from lab.bench.retrieval import load_clips, set_threads
 from retrieval.codes import DiffTable, Quantizer
 from retrieval.errors import StoryBeamError
-from retrieval.experiment import stack_frames, stratified_folds
+from lab.experiment import stack_frames, stratified_folds
 from retrieval.search import STAGES, FastSearcher, SearchStats, warm_up
 
 #: the two variants compared: name -> FastSearcher keyword arguments

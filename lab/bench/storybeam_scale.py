@@ -4,7 +4,7 @@ StoryBeam's own method (:class:`retrieval.library.StoryBeamSearcher`: a code sho
 the fast search, then exact float DTW on the ``storybeam`` features re-ranking it) keeps
 the float features of every clip, so it cannot run on the codes-only scale library of
 ``storybeam bench retrieval``. This bench builds the same derived library
-(:func:`app.bench.scale_library.derived_takes`: mirrored, time-scaled, spliced takes of
+(:func:`lab.bench.scale_library.derived_takes`: mirrored, time-scaled, spliced takes of
 the real clips, ≥ 2 600 clips and ≥ 9 h at 30 fps) with the ``storybeam`` features kept,
 fits the searcher on it, and times the 1-NN of each held-out real clip (a stratified
 third of the shared CMU set, none of whose takes the library was derived from) on one
@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from app.bench.retrieval import set_threads
-from app.bench.scale_library import derived_takes
+from lab.bench.retrieval import set_threads
+from lab.bench.scale_library import derived_takes
 from retrieval.dtw import HAVE_NUMBA, dtw_features
 from retrieval.errors import StoryBeamError
-from retrieval.experiment import stratified_folds
+from lab.experiment import stratified_folds
 from retrieval.library import SHORTLIST, StoryBeamSearcher, load_dataset
 
 FEATURE_SET = "storybeam"

@@ -12,7 +12,7 @@ Starting from real seed files (the shared CMU takes, or the bundled BVHs) and ap
 the damage real files suffer — truncation, bit flips, edited counts, NaN/inf, deep or
 duplicated blocks, spliced files — reaches every branch. Seeds are cut to a few frames
 so one input takes milliseconds (the per-frame code is vectorised; extra frames add time
-but no new paths). Coverage-guided fuzzing with atheris (:mod:`app.stress.atheris_fuzz`, `storybeam stress
+but no new paths). Coverage-guided fuzzing with atheris (:mod:`lab.stress.atheris_fuzz`, `storybeam stress
 --only atheris`) complements this when atheris is installed.
 
 Inputs run in-process with a per-input alarm (:func:`check_input`); a worker subprocess
@@ -452,7 +452,7 @@ def fuzz_in_process(seeds: list[Seed], n_inputs: int, rng_seed: int, workdir: Pa
 
 
 def _worker_main(argv: list[str]) -> int:
-    """``python -m app.stress.fuzz_motion worker CONFIG.json``: fuzz batches, one JSON line each."""
+    """``python -m lab.stress.fuzz_motion worker CONFIG.json``: fuzz batches, one JSON line each."""
     cfg = json.loads(Path(argv[0]).read_text())
     mem = int(cfg.get("memory_limit", WORKER_MEMORY_LIMIT))
     if mem > 0:
@@ -505,7 +505,7 @@ def run_campaign(seeds: list[Seed], *, inputs: int | None = None, seconds: float
                                    "rng_seed": rng_seed * 1_000_003 + next_batch, "time_limit_s": time_limit_s,
                                    "memory_limit": memory_limit,
                                    "crash_dir": str(crash_dir) if crash_dir else ""}))
-        proc = subprocess.Popen([sys.executable, "-m", "app.stress.fuzz_motion", "worker", str(cfg)],
+        proc = subprocess.Popen([sys.executable, "-m", "lab.stress.fuzz_motion", "worker", str(cfg)],
                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
         try:
             for line in _lines_with_timeout(proc, this_batch * time_limit_s + 60.0):
@@ -595,7 +595,7 @@ def memory_probes(folder: Path, bvh_seed: bytes | None = None, timeout_s: float 
     results = []
     for label, path in _probe_files(folder, bvh_seed).items():
         try:
-            done = subprocess.run([sys.executable, "-m", "app.stress.fuzz_motion", "probe", str(path)], capture_output=True,
+            done = subprocess.run([sys.executable, "-m", "lab.stress.fuzz_motion", "probe", str(path)], capture_output=True,
                                   text=True, timeout=timeout_s)
             info = json.loads(done.stdout.strip().splitlines()[-1]) if done.returncode == 0 else {
                 "status": "crash", "detail": done.stderr[-500:]}
@@ -621,4 +621,4 @@ if __name__ == "__main__":  # pragma: no cover - entry point of the worker subpr
         sys.exit(_worker_main(sys.argv[2:]))
     if len(sys.argv) == 3 and sys.argv[1] == "probe":
         sys.exit(_probe_main(sys.argv[2]))
-    sys.exit("usage: python -m app.stress.fuzz_motion worker CONFIG.json | probe FILE.bvh")
+    sys.exit("usage: python -m lab.stress.fuzz_motion worker CONFIG.json | probe FILE.bvh")
