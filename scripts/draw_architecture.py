@@ -9,7 +9,7 @@ Method: the static import scan of ``tests/support/imports.py`` (the one
 (``retrieval.motion``, ``ar.render``, ``app.story``, ...), the nodes its modules import. The
 script writes
 
-* a Mermaid ``flowchart`` into ``docs/architecture.md`` between
+* a Mermaid ``flowchart`` into ``docs/design/architecture.md`` between
   ``<!-- BEGIN GENERATED: layers -->`` and ``<!-- END GENERATED -->``: an arrow ``A --> B``
   when a module of A imports one of B at module level, dotted (``A -.-> B``) when A
   imports B only inside functions; arrows into ``retrieval.errors``, which every layer may
@@ -34,7 +34,7 @@ if str(REPO) not in sys.path:
 
 from tests.support.imports import UNITS, Module, scan, unit_of  # noqa: E402
 
-DOC = REPO / "docs" / "architecture.md"
+DOC = REPO / "docs" / "design" / "architecture.md"
 PNG = REPO / "docs" / "img" / "architecture.png"
 BEGIN = "<!-- BEGIN GENERATED: layers -->"
 END = "<!-- END GENERATED -->"
@@ -223,7 +223,7 @@ def draw_png(modules: Mapping[str, Module], path: Path = PNG) -> None:
                 weight="bold", color=ink[top])
     ax.text(-0.2, -1.75,
             "A → B: a module of A imports one of B (dashed: only inside functions). Arrows implied by a chain "
-            "of others are omitted; docs/architecture.md lists them all. Drawn by scripts/draw_architecture.py.",
+            "of others are omitted; docs/design/architecture.md lists them all. Drawn by scripts/draw_architecture.py.",
             fontsize=8, color="#444444", va="center")
     ax.set_xlim(-0.3, x0 - 0.5)
     ax.set_ylim(-2.0, top_level + 1.1)
@@ -235,7 +235,7 @@ def draw_png(modules: Mapping[str, Module], path: Path = PNG) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--no-png", action="store_true", help="update docs/architecture.md only")
+    parser.add_argument("--no-png", action="store_true", help="update docs/design/architecture.md only")
     args = parser.parse_args(argv)
     modules = scan()
     text = DOC.read_text(encoding="utf-8")

@@ -15,7 +15,7 @@ Two kinds of check:
 
 Each check is its own test, reports every offender with ``file:line`` and the import, and
 has a self-test on a synthetic package (``test_checkers_catch_*``) showing it can fail.
-The diagram in docs/architecture.md is generated from the same scan; a test keeps it true.
+The diagram in docs/design/architecture.md is generated from the same scan; a test keeps it true.
 """
 from __future__ import annotations
 
@@ -448,10 +448,10 @@ def test_architecture_diagram_is_current():
     spec = importlib.util.spec_from_file_location("draw_architecture", REPO / "scripts" / "draw_architecture.py")
     draw = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(draw)
-    doc = (REPO / "docs" / "architecture.md").read_text(encoding="utf-8")
-    assert draw.BEGIN in doc and draw.END in doc, "docs/architecture.md lost its generated-diagram markers"
+    doc = (REPO / "docs" / "design" / "architecture.md").read_text(encoding="utf-8")
+    assert draw.BEGIN in doc and draw.END in doc, "docs/design/architecture.md lost its generated-diagram markers"
     assert doc == draw.update_document(doc, draw.mermaid(scan())), (
-        "the diagram in docs/architecture.md no longer matches the imports: run python scripts/draw_architecture.py"
+        "the diagram in docs/design/architecture.md no longer matches the imports: run python scripts/draw_architecture.py"
     )
 
 
