@@ -61,7 +61,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-import app.story.storage as storage_module  # the controls swap its durable_write
+import app.story.storage.database as storage_module  # the controls swap its durable_write
 import ar.calibration as calibration_module  # (likewise)
 import retrieval.durable as durable  # (and its fsync_dir)
 from app.paths import REPO_ROOT
