@@ -85,8 +85,10 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     **RETRIEVAL_ALLOWED,
     # ar core (errors, geometry, boards, pose, filtering, calibration, synthetic): no rendering
     "ar": (ERRORS, "retrieval.durable"),
-    # body pose from camera frames (BlazePose through a TFLite interpreter): on the core only
-    "ar.body": ("ar", ERRORS, "retrieval.durable"),
+    # body pose from camera frames (BlazePose through a TFLite interpreter): on the core, and
+    # retrieval.motion for the one table of BlazePose's landmarks (LANDMARK_NAMES), which the
+    # retrieval side turns into joints and may not import ar for
+    "ar.body": ("ar", ERRORS, "retrieval.durable", "retrieval.motion"),
     # the renderer-agnostic scene (numpy meshes, characters, views): no GL, no trimesh
     "ar.scene": ("ar", ERRORS, "retrieval.motion", "retrieval.animation"),
     # the pyrender/trimesh renderer, on top of the core and the scene

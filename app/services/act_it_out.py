@@ -33,6 +33,7 @@ import numpy as np
 
 from app.services.background import BackgroundLoad
 from retrieval.errors import StoryBeamError
+from retrieval.motion import LANDMARK_INDEX  # BlazePose's landmarks by name
 
 if TYPE_CHECKING:
     from ar.body import BodyPose, BodyTake
@@ -60,21 +61,14 @@ LIFT_HEAD = "lift_head"
 NO_BODY = "no_body"
 REASONS = (STEP_BACK, LIFT_HEAD, NO_BODY)
 
-#: BlazePose's 33 landmarks by name (the order of :data:`ar.body.LANDMARK_NAMES`; a test
-#: checks they agree): only the ones the verdict and the skeleton drawing need
-LANDMARK = {"nose": 0, "left_eye": 2, "right_eye": 5, "left_ear": 7, "right_ear": 8,
-            "left_shoulder": 11, "right_shoulder": 12, "left_elbow": 13, "right_elbow": 14,
-            "left_wrist": 15, "right_wrist": 16, "left_hip": 23, "right_hip": 24, "left_knee": 25,
-            "right_knee": 26, "left_ankle": 27, "right_ankle": 28, "left_heel": 29, "right_heel": 30,
-            "left_foot_index": 31, "right_foot_index": 32}
 #: the face: all must be seen (else "lift your head"), and inside the picture (else "step back")
-FACE = tuple(LANDMARK[n] for n in ("nose", "left_eye", "right_eye"))
+FACE = tuple(LANDMARK_INDEX[n] for n in ("nose", "left_eye", "right_eye"))
 #: the body from shoulders to ankles: all must be inside the picture and seen (else "step back")
-BODY = tuple(LANDMARK[n] for n in ("left_shoulder", "right_shoulder", "left_hip", "right_hip", "left_knee",
+BODY = tuple(LANDMARK_INDEX[n] for n in ("left_shoulder", "right_shoulder", "left_hip", "right_hip", "left_knee",
                                    "right_knee", "left_ankle", "right_ankle"))
 #: the detected skeleton drawn over the preview: pairs of landmark indices
 SKELETON_BONES: tuple[tuple[int, int], ...] = tuple(
-    (LANDMARK[a], LANDMARK[b]) for a, b in (
+    (LANDMARK_INDEX[a], LANDMARK_INDEX[b]) for a, b in (
         ("left_shoulder", "right_shoulder"), ("left_hip", "right_hip"),
         ("left_shoulder", "left_hip"), ("right_shoulder", "right_hip"),
         ("left_shoulder", "left_elbow"), ("left_elbow", "left_wrist"),
@@ -315,5 +309,5 @@ def pose_runtime_problem() -> str | None:
 
 __all__ = ["ActItOut", "ActItOutError", "ActLibrary", "TakeVerdict", "judge_poses", "frame_problem",
            "act_it_out_allowed", "set_act_it_out_allowed", "pose_runtime_problem", "ACT_SETTING", "TAKE_SECONDS",
-           "MIN_SEEN", "MIN_VISIBILITY", "RESULTS", "STEP_BACK", "LIFT_HEAD", "NO_BODY", "REASONS", "LANDMARK",
+           "MIN_SEEN", "MIN_VISIBILITY", "RESULTS", "STEP_BACK", "LIFT_HEAD", "NO_BODY", "REASONS",
            "FACE", "BODY", "SKELETON_BONES"]

@@ -43,15 +43,7 @@ from ar.body.models import load_model
 from ar.body.smoothing import AUXILIARY, LANDMARKS, WORLD, LandmarkSmoother, OneEuroFilter
 from ar.camera_sources import CameraSource
 from retrieval.errors import StoryBeamError
-
-#: BlazePose's 33 landmarks, in the models' order.
-LANDMARK_NAMES: tuple[str, ...] = (
-    "nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner", "right_eye", "right_eye_outer",
-    "left_ear", "right_ear", "mouth_left", "mouth_right", "left_shoulder", "right_shoulder", "left_elbow",
-    "right_elbow", "left_wrist", "right_wrist", "left_pinky", "right_pinky", "left_index", "right_index",
-    "left_thumb", "right_thumb", "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
-    "left_heel", "right_heel", "left_foot_index", "right_foot_index",
-)
+from retrieval.motion import LANDMARK_NAMES  # BlazePose's 33 landmarks, in the models' order
 
 _DETECTOR_OUTPUTS = {"boxes": (1, bp.NUM_ANCHORS, 4 + 2 * bp.NUM_KEYPOINTS), "scores": (1, bp.NUM_ANCHORS, 1)}
 _LANDMARK_OUTPUTS = {

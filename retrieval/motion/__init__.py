@@ -1,6 +1,7 @@
 """The motion model: skeletons, motions, rotations, forward kinematics, the canonical body
 map, the file formats (:mod:`retrieval.motion.formats`), and BlazePose landmarks as
-canonical joints (:mod:`retrieval.motion.landmarks`).
+canonical joints (:mod:`retrieval.motion.landmarks`, with the one table of BlazePose's
+landmarks, :data:`LANDMARK_NAMES`).
 
 The bottom layer of StoryBeam: it imports nothing else of StoryBeam but
 :mod:`retrieval.errors`.
@@ -34,7 +35,7 @@ from retrieval.motion.kinematics import (
     rest_positions,
     world_from_native,
 )
-from retrieval.motion.landmarks import LandmarkError, landmarks_to_positions
+from retrieval.motion.landmarks import LANDMARK_INDEX, LANDMARK_NAMES, LandmarkError, landmarks_to_positions
 from retrieval.motion.model import Joint, Motion, Skeleton
 from retrieval.motion.rotations import (
     axis_rotation,
@@ -75,6 +76,8 @@ __all__ = [
     "load_asf",
     "load_amc",
     "AcclaimSkeleton",
+    "LANDMARK_NAMES",
+    "LANDMARK_INDEX",
     "LandmarkError",
     "landmarks_to_positions",
 ]

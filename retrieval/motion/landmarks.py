@@ -82,13 +82,27 @@ import numpy as np
 from retrieval.errors import StoryBeamError
 from retrieval.motion.body import CANONICAL_JOINTS
 
+#: BlazePose's 33 landmarks, in the models' order: StoryBeam's one table of them (the
+#: tracker in :mod:`ar.body`, the "Act it out" verdict and skeleton in :mod:`app.services`
+#: and the joints below all read it).
+LANDMARK_NAMES: tuple[str, ...] = (
+    "nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner", "right_eye", "right_eye_outer",
+    "left_ear", "right_ear", "mouth_left", "mouth_right", "left_shoulder", "right_shoulder", "left_elbow",
+    "right_elbow", "left_wrist", "right_wrist", "left_pinky", "right_pinky", "left_index", "right_index",
+    "left_thumb", "right_thumb", "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
+    "left_heel", "right_heel", "left_foot_index", "right_foot_index",
+)
+#: Landmark name -> its index in :data:`LANDMARK_NAMES`.
+LANDMARK_INDEX: dict[str, int] = {name: i for i, name in enumerate(LANDMARK_NAMES)}
 #: Number of BlazePose landmarks.
-N_LANDMARKS = 33
+N_LANDMARKS = len(LANDMARK_NAMES)
 #: BlazePose landmark indices used here.
-NOSE, L_EAR, R_EAR = 0, 7, 8
-L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST = 11, 12, 13, 14, 15, 16
-L_HIP, R_HIP, L_KNEE, R_KNEE, L_ANKLE, R_ANKLE = 23, 24, 25, 26, 27, 28
-L_FOOT_INDEX, R_FOOT_INDEX = 31, 32
+NOSE, L_EAR, R_EAR = (LANDMARK_INDEX[n] for n in ("nose", "left_ear", "right_ear"))
+L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST = (LANDMARK_INDEX[n] for n in (
+    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist"))
+L_HIP, R_HIP, L_KNEE, R_KNEE, L_ANKLE, R_ANKLE = (LANDMARK_INDEX[n] for n in (
+    "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle"))
+L_FOOT_INDEX, R_FOOT_INDEX = LANDMARK_INDEX["left_foot_index"], LANDMARK_INDEX["right_foot_index"]
 
 #: Canonical joint -> the one BlazePose landmark it is (the joints built from several
 #: landmarks — hips, spine, neck, head — are in :func:`landmarks_to_positions`).
@@ -118,9 +132,10 @@ UP_OFFSETS: dict[str, float] = {
 #: module docstring).
 HEAD_ABOVE_NECK = 0.52
 
-#: Left/right BlazePose landmark pairs (eyes, ears, mouth, and every limb landmark).
-LR_PAIRS: tuple[tuple[int, int], ...] = ((1, 4), (2, 5), (3, 6), (7, 8), (9, 10),
-                                         *((i, i + 1) for i in range(11, 33, 2)))
+#: Left/right BlazePose landmark pairs (eyes, ears, mouth, and every limb landmark), in
+#: the order of the left one.
+LR_PAIRS: tuple[tuple[int, int], ...] = tuple(
+    (i, LANDMARK_INDEX[name.replace("left", "right")]) for i, name in enumerate(LANDMARK_NAMES) if "left" in name)
 #: A frame whose image across width (|shoulder dx| + |hip dx|, pixels) is under this
 #: fraction of the take's median is a side swap caught half-way: treated as missed.
 COLLAPSE_FRACTION = 0.3
@@ -257,5 +272,5 @@ def landmarks_to_positions(world: np.ndarray, image_xy: np.ndarray, valid: np.nd
     return pos, {n: i for i, n in enumerate(names)}, leg
 
 
-__all__ = ["N_LANDMARKS", "DIRECT", "UP_OFFSETS", "HEAD_ABOVE_NECK", "LR_PAIRS", "COLLAPSE_FRACTION", "LandmarkError",
+__all__ = ["LANDMARK_NAMES", "LANDMARK_INDEX", "N_LANDMARKS", "DIRECT", "UP_OFFSETS", "HEAD_ABOVE_NECK", "LR_PAIRS", "COLLAPSE_FRACTION", "LandmarkError",
            "consistent_sides", "fill_gaps", "metres_per_pixel", "landmarks_to_positions"]

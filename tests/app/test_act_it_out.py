@@ -33,6 +33,7 @@ from app.services.act_it_out import (
 )
 from app.story.storage import ProfileStore
 from ar.camera_sources import CameraFrame, CameraSource
+from retrieval.motion import LANDMARK_INDEX, LANDMARK_NAMES
 
 body = pytest.importorskip("ar.body", reason="the pose package ar.body is not in this checkout")
 
@@ -111,8 +112,11 @@ def flow(search=None) -> ActItOut:
 
 
 def test_landmark_numbers_are_blazeposes():
-    for name, i in act.LANDMARK.items():
+    """One table of BlazePose's landmarks: the tracker's names are the verdict's indices."""
+    assert body.LANDMARK_NAMES is LANDMARK_NAMES
+    for name, i in LANDMARK_INDEX.items():
         assert body.LANDMARK_NAMES[i] == name
+    assert [body.LANDMARK_NAMES[i] for i in act.FACE] == ["nose", "left_eye", "right_eye"]
 
 
 def test_one_frame_is_judged_by_what_of_the_body_it_shows():

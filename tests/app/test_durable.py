@@ -19,6 +19,7 @@ import app.story.storage as storage
 import retrieval.durable as durable
 from app.story.model import Story
 from app.story.storage import ProfileStore, StorageError
+from app.story.storage.stories import StoryShelf
 from ar.calibration import CameraCalibration
 from ar.errors import CalibrationError
 from retrieval.durable import clean_temporaries, durable_file, durable_write, make_dirs
@@ -164,9 +165,9 @@ def test_import_makes_the_assets_durable_before_committing_the_row(tmp_path, mon
     zip_path = src.export_package(story.id, tmp_path / "s.zip")
     src.close()
     events: list[str] = []
-    real_move, real_save = storage.durable_move, ProfileStore.save_story
-    monkeypatch.setattr(storage, "durable_move", lambda a, b: (events.append("assets in place"), real_move(a, b))[1])
-    monkeypatch.setattr(ProfileStore, "save_story", lambda self, s: (events.append("row"), real_save(self, s))[1])
+    real_move, real_save = storage.packages.durable_move, StoryShelf.save
+    monkeypatch.setattr(storage.packages, "durable_move", lambda a, b: (events.append("assets in place"), real_move(a, b))[1])
+    monkeypatch.setattr(StoryShelf, "save", lambda self, s: (events.append("row"), real_save(self, s))[1])
     with ProfileStore(tmp_path / "dst.db") as dst:
         imported = dst.import_package(zip_path)
         assert events == ["assets in place", "row"]
@@ -185,7 +186,7 @@ def test_import_that_fails_before_the_commit_adds_no_story_and_leaves_no_staging
     def fail(a, b):
         raise OSError(errno.EIO, "Input/output error")
 
-    monkeypatch.setattr(storage, "durable_move", fail)
+    monkeypatch.setattr(storage.packages, "durable_move", fail)
     with ProfileStore(tmp_path / "dst.db") as dst:
         with pytest.raises(StorageError, match=r"s\.zip: not imported \(Input/output error\)"):
             dst.import_package(zip_path)
@@ -284,7 +285,7 @@ def test_read_only_storage_is_reported_as_such(tmp_path, monkeypatch):
     def refuse(path, data):
         raise PermissionError(errno.EROFS, "Read-only file system")
 
-    monkeypatch.setattr(storage, "durable_write", refuse)
+    monkeypatch.setattr(storage.database, "durable_write", refuse)
     with ProfileStore(tmp_path / "p.db") as store:
         with pytest.raises(StorageError, match=r"bg\.png: not saved \(the folder cannot be written: Read-only"):
             store.put_asset("s1", "bg.png", b"png")

@@ -11,6 +11,8 @@ import zipfile
 import pytest
 
 import app.story.storage as storage
+import app.story.storage.packages as packages
+import app.story.storage.teacher as teacher
 from app.story.editing import StoryEditor
 from app.story.storage import MIGRATIONS, SCHEMA_VERSION, ProfileStore, StorageError, read_package
 from app.story.model import Story
@@ -19,7 +21,7 @@ from retrieval.errors import StoryBeamError
 
 @pytest.fixture(autouse=True)
 def fast_pin(monkeypatch):
-    monkeypatch.setattr(storage, "PIN_ITERATIONS", 1000)
+    monkeypatch.setattr(teacher, "PIN_ITERATIONS", 1000)
 
 
 def _story() -> Story:
@@ -156,7 +158,7 @@ def _write_package(path, files: dict[str, bytes], manifest: dict | None = None, 
     ({"assets/big.bin": b"\0" * 2048}, {}, "larger than"),
 ])
 def test_malicious_packages_are_refused_before_writing(tmp_path, monkeypatch, files_change, manifest_change, fragment):
-    monkeypatch.setattr(storage, "MAX_ENTRY_BYTES", 1024)
+    monkeypatch.setattr(packages, "MAX_ENTRY_BYTES", 1024)
     story = _story()
     files = {"story.json": json.dumps(story.to_dict()).encode(), **files_change}
     pkg = tmp_path / "bad.zip"

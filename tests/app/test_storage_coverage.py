@@ -1,8 +1,8 @@
 """OS failures injected *below* the store (issue 17, part 3: the storage group at 100 % of
 branches, each path reached through the public API).
 
-The other storage tests make a store-level name (``storage.durable_write``,
-``storage.durable_move``) raise. Here the failure comes from the operating system instead:
+The other storage tests make a store-level name (``storage.database.durable_write``,
+``storage.packages.durable_move``) raise. Here the failure comes from the operating system instead:
 ``os.fsync``, ``os.replace``, ``os.open`` (creating the temporary file) or ``os.mkdir``
 raise ``OSError`` with ENOSPC, EACCES, EROFS or EIO while the real code path runs
 (:mod:`retrieval.durable` under :class:`ProfileStore`, the packages and
@@ -92,7 +92,7 @@ def faults(monkeypatch):
     return DiskFaults(monkeypatch)
 
 
-#: What the store says for each errno (app.story.storage._os_problem).
+#: What the store says for each errno (app.story.storage.database.os_problem).
 REASON = {
     errno.ENOSPC: "the device storage is full; free some space",
     errno.EACCES: "the folder cannot be written: Permission denied",

@@ -38,8 +38,8 @@ def test_a_failed_migration_is_rolled_back_and_says_so(tmp_path, monkeypatch):
     with ProfileStore(path) as store:
         store.save_story(story)
     broken = (*storage.MIGRATIONS, ("CREATE TABLE half_done (a)", "INSERT INTO no_such_table VALUES (1)"))
-    monkeypatch.setattr(storage, "MIGRATIONS", list(broken))
-    monkeypatch.setattr(storage, "SCHEMA_VERSION", len(broken))
+    monkeypatch.setattr(storage.database, "MIGRATIONS", list(broken))
+    monkeypatch.setattr(storage.database, "SCHEMA_VERSION", len(broken))
     with pytest.raises(StorageError) as err:
         ProfileStore(path)
     assert str(err.value) == (f"{path}: could not upgrade the profile to schema {len(broken)} "
@@ -281,7 +281,7 @@ def test_a_save_the_disk_refuses_says_why_and_keeps_the_last_save(tmp_path, monk
     with ProfileStore(path) as store:
         store.save_story(story)
     real_connect = sqlite3.connect
-    monkeypatch.setattr(storage.sqlite3, "connect",
+    monkeypatch.setattr(storage.database.sqlite3, "connect",
                         lambda *a, **k: _FailingConnection(real_connect(*a, **k), "INSERT INTO STORIES", errorname, text))
     with ProfileStore(path) as store:
         changed = demo_story()
@@ -305,7 +305,7 @@ def test_an_asset_or_csv_the_disk_refuses_says_why(tmp_path, monkeypatch, errno_
     with ProfileStore(tmp_path / "p.db") as store:
         story = demo_story()
         store.save_story(story)
-        monkeypatch.setattr(storage, "durable_write", refuse)
+        monkeypatch.setattr(storage.database, "durable_write", refuse)
         with pytest.raises(StorageError) as err:
             store.put_asset(story.id, "bg.png", b"png")
         assert str(err.value) == f"{store.assets_dir / story.id / 'bg.png'}: not saved ({reason})"
@@ -319,8 +319,8 @@ def test_a_migration_that_fails_in_python_is_rolled_back_too(tmp_path, monkeypat
     path = tmp_path / "p.db"
     ProfileStore(path).close()
     broken = (*storage.MIGRATIONS, ("CREATE TABLE half_done (a)", None))  # not SQL at all: a TypeError
-    monkeypatch.setattr(storage, "MIGRATIONS", list(broken))
-    monkeypatch.setattr(storage, "SCHEMA_VERSION", len(broken))
+    monkeypatch.setattr(storage.database, "MIGRATIONS", list(broken))
+    monkeypatch.setattr(storage.database, "SCHEMA_VERSION", len(broken))
     with pytest.raises(TypeError):  # a programming error is not dressed up as the user's problem
         ProfileStore(path)
     with sqlite3.connect(path) as conn:

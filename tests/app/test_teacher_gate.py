@@ -25,7 +25,7 @@ from tests.app.test_ui import _drive
 
 @pytest.fixture(autouse=True)
 def fast_hash(monkeypatch):
-    monkeypatch.setattr(storage, "PIN_ITERATIONS", 1000)
+    monkeypatch.setattr(storage.teacher, "PIN_ITERATIONS", 1000)
 
 
 class Clock:

@@ -42,8 +42,8 @@ TABLET_MODULES = tuple(m for mods in RECIPE_MODULES.values() for m in mods) + tu
 HARNESS_MODULES = ("pytest", "_pytest", "pluggy", "iniconfig", "py", "pygments", "packaging", "tomli", "exceptiongroup",
                    "coverage", "$coverage")  # "$coverage": a name coverage.py's debug output puts in sys.modules
 #: StoryBeam and the test support modules
-OWN_MODULES = ("app", "ar", "retrieval", "main", "tests", "ui_driver", "tablet_scenarios", "narration_scenarios",
-               "act_scenarios", "tablet_profile")
+OWN_MODULES = ("app", "ar", "retrieval", "main", "tests", "ui_driver", "ui_touch", "ui_scenarios", "tablet_scenarios",
+               "narration_scenarios", "act_scenarios", "tablet_profile")
 
 
 def is_third_party(top: str) -> bool:
