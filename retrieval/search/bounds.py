@@ -13,8 +13,9 @@ which the tablet's path (:mod:`retrieval.search.numpy_path`) uses; here:
 * :func:`block_corner_cap` — an *upper* bound of the k-th best distance from the
   block-corner DTW (:func:`retrieval.dtw.block_corner.runs_dtw_raw`) of a few candidates.
 
-``Q`` and ``L`` are the query's and the library's :meth:`PackedCodes.arrays
-<retrieval.search.packed.PackedCodes.arrays>`.
+``Q`` is the query's :meth:`PackedCodes.arrays <retrieval.search.packed.PackedCodes.arrays>`,
+``L`` the library's with its distinct codes as indices into its vocabulary (the columns of
+the query's table rows).
 """
 from __future__ import annotations
 
@@ -83,7 +84,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
 
     @numba.njit(cache=True, nogil=True)
     def lb_pair(q_dc, nx, q_first, q_last, c_dv, c_dc, ny, c_first, c_last,
-                 F, absdiff, shift, mask, colmin, RT, row_out):
+                F, absdiff, shift, mask, colmin, RT, row_out):
         """Normalised max(LB_Kim, envelope rows, envelope columns): :func:`envelope_rows`
         (``row_out``: each query code's cheapest candidate code, which the exact search's
         envelopes reuse) and :func:`lb_cheap`."""
@@ -101,7 +102,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
         for c in range(lco.shape[0] - 1):
             b0, b1 = lco[c], lco[c + 1]
             out[c] = lb_cheap(a1 - a0, qc[a0], qc[a1 - 1], ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0,
-                               lc[b0], lc[b1 - 1], F, absdiff, shift, mask, colmin) / (a1 - a0 + b1 - b0)
+                              lc[b0], lc[b1 - 1], F, absdiff, shift, mask, colmin) / (a1 - a0 + b1 - b0)
 
     @numba.njit(cache=True, nogil=True, parallel=True)
     def lbs_parallel(qi, Q, L, F, absdiff, shift, mask, RT, colmin, out, rowmins):
@@ -111,8 +112,8 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
         for c in numba.prange(lco.shape[0] - 1):
             b0, b1 = lco[c], lco[c + 1]
             out[c] = lb_pair(qdc[qdo[qi]:qdo[qi + 1]], a1 - a0, qc[a0], qc[a1 - 1],
-                              ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
-                              F, absdiff, shift, mask, colmin, RT, rowmins[c])
+                             ldv[ldo[c]:ldo[c + 1]], ldc[ldo[c]:ldo[c + 1]], b1 - b0, lc[b0], lc[b1 - 1],
+                             F, absdiff, shift, mask, colmin, RT, rowmins[c])
 
     @numba.njit(cache=True, nogil=True)
     def block_corner_cap(cands, k, q_val, q_len, nx, L, F, absdiff, shift, mask, row_prev, row_next):
@@ -125,7 +126,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
         for pos in range(m_ub):
             c = cands[pos]
             ubs[pos] = runs_dtw_raw(q_val, q_len, lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]], F, absdiff, shift,
-                                     mask, np.zeros(q_val.shape[0]), np.inf, 1.0,
-                                     row_prev, row_next) / float(nx + lco[c + 1] - lco[c])
+                                    mask, np.zeros(q_val.shape[0]), np.inf, 1.0,
+                                    row_prev, row_next) / float(nx + lco[c + 1] - lco[c])
         ubs.sort()
         return ubs[k - 1]

@@ -56,7 +56,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
 
     @numba.njit(cache=True, nogil=True)
     def refine(qi, Q, L, LV, F, absdiff, shift, mask, R, RT, lbs, rowmins, colmin, k, use_rle, band, out_idx,
-                out_dist, stats, abandon, range_bound, lazy):
+               out_dist, stats, abandon, range_bound, lazy):
         """Candidates in bound order (best-first over refined bounds when the segment filter
         is in use, module docstring): prune, DTW with early abandoning, keep the k best
         (distance, then index). Writes out_idx/out_dist (k) and stats (5). ``LV``: the
@@ -173,7 +173,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
             # the cap again from the best candidates by the full bound (usually nearer)
             if cap < inf and n_loop >= k:
                 cap = min(cap, block_corner_cap(loop_order, k, qrv[r0:r1], qrl[r0:r1], nx, L, F, absdiff, shift,
-                                                 mask, row_prev, row_next))
+                                                mask, row_prev, row_next))
         # Best-first over bounds refined lazily (module docstring, "Visiting order"): a
         # candidate enters a heap keyed by its segment-cover bound (coarse, then fine)
         # when the next envelope bound in the stream is no lower than the heap's least
@@ -271,7 +271,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
                         j -= 1
             if use_rle == 2 and band < 0:
                 raw = runs_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
-                                    F, absdiff, shift, mask, rest_run, thr, norm, row_prev, row_next)
+                                   F, absdiff, shift, mask, rest_run, thr, norm, row_prev, row_next)
             elif use_rle == 1 and band < 0:
                 raw = rle_dtw_raw(qrv[r0:r1], qrl[r0:r1], lrv[lro[c]:lro[c + 1]], lrl[lro[c]:lro[c + 1]],
                                   F, absdiff, shift, mask, rest2, rest_col, thr, norm,
@@ -287,7 +287,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
                         i -= 1
                 band_limits_nb(nx, ny, band, lo, hi)
                 raw = plain_dtw_raw(row_didx, lc_v[b0:b1], R, lo, hi, rest_row, rest_col, thr, norm,
-                                     row_prev, row_next)
+                                    row_prev, row_next)
             if raw == inf:
                 abandoned += 1
                 continue
@@ -310,7 +310,7 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
 
     @numba.njit(cache=True, nogil=True)
     def search_query(qi, Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats,
-                      range_bound):
+                     range_bound):
         """Every stage for query ``qi``: its table rows, every candidate's bounds, the
         candidate loop (writes row ``qi`` of the outputs)."""
         ncand = L[1].shape[0] - 1
@@ -318,14 +318,14 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
         R, colmin = query_rows(Q[6][Q[8][qi]:Q[8][qi + 1]], vocab, F, absdiff, shift, mask)
         lbs_cheap(qi, Q, L, F, absdiff, shift, mask, colmin, lbs)
         refine(qi, Q, L, LV, F, absdiff, shift, mask, R, np.ascontiguousarray(R.T), lbs,
-                np.empty((0, 0), np.float32), colmin, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi], True,
-                range_bound, True)
+               np.empty((0, 0), np.float32), colmin, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi], True,
+               range_bound, True)
 
     @numba.njit(cache=True, nogil=True, parallel=True)
     def search_batch(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):
         for qi in numba.prange(Q[1].shape[0] - 1):
             search_query(qi, Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats,
-                          range_bound)
+                         range_bound)
 
     @numba.njit(cache=True, nogil=True)
     def search_serial(Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats, range_bound):
@@ -334,4 +334,4 @@ if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is inst
         each crossing unpacks some thirty arrays)."""
         for qi in range(Q[1].shape[0] - 1):
             search_query(qi, Q, L, LV, vocab, F, absdiff, shift, mask, k, use_rle, band, out_idx, out_dist, stats,
-                          range_bound)
+                         range_bound)

@@ -184,7 +184,7 @@ class FastSearcher:
         t = self.table
         if not parallel and self.use_bounds:  # one thread: all stages in one compiled call
             search_serial(Q, L, LV, self.vocab, t.F, t.absdiff, self._shift, self._mask, k, use_rle, band, out_idx,
-                           out_dist, stats, self.range_bound)
+                          out_dist, stats, self.range_bound)
         elif nq == 1 or not parallel:
             for qi in range(nq):
                 self._search_one(packed, Q, qi, k, use_rle, band, out_idx[qi], out_dist[qi], stats[qi], parallel)
@@ -192,7 +192,7 @@ class FastSearcher:
             if not self.use_bounds:
                 raise DTWError("use_bounds=False is only supported for serial searches")
             search_batch(Q, L, LV, self.vocab, t.F, t.absdiff, self._shift, self._mask, k, use_rle, band, out_idx, out_dist, stats,
-                          self.range_bound)
+                         self.range_bound)
         res = SearchResult(out_idx, out_dist)
         for row in stats:
             res.stats.add(row)
@@ -210,7 +210,7 @@ class FastSearcher:
         clock = time.perf_counter
         t0 = clock()
         R, colmin = query_rows(packed.dist_val[packed.dist_off[qi]:packed.dist_off[qi + 1]], self.vocab,
-                                t.F, t.absdiff, self._shift, self._mask)
+                               t.F, t.absdiff, self._shift, self._mask)
         t1 = clock()
         lbs = np.empty(len(self.library))
         RT = np.ascontiguousarray(R.T)
@@ -226,7 +226,7 @@ class FastSearcher:
             lbs_parallel(qi, Q, self._L, t.F, t.absdiff, self._shift, self._mask, RT, colmin, lbs, rowmins)
         t2 = clock()
         refine(qi, Q, self._L, self._LV, t.F, t.absdiff, self._shift, self._mask, R, RT, lbs, rowmins, colmin, k,
-                use_rle, band, out_idx, out_dist, stats, self.use_bounds, self.range_bound, lazy)
+               use_rle, band, out_idx, out_dist, stats, self.use_bounds, self.range_bound, lazy)
         if times is not None:
             t3 = clock()
             for key, dt in (("rows", t1 - t0), ("bounds", t2 - t1), ("loop", t3 - t2)):
