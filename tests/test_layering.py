@@ -150,6 +150,10 @@ SUBMODULE_IMPORTS_ALLOWED: tuple[tuple[str, str, str], ...] = (
     ("*", "retrieval.dtw.jit", "the numba handle, for modules that compile kernels of their own"),
     ("retrieval.search", "retrieval.dtw.runlength", "compiled kernels, present only with numba"),
     ("retrieval.search", "retrieval.dtw.range_bound", "compiled kernels, present only with numba"),
+    # the fast search's DPs, compiled beside their numpy twins in dtw (issue 30, "Kernels beside their twins")
+    ("retrieval.search", "retrieval.dtw.block_corner", "compiled kernels, present only with numba"),
+    ("retrieval.search", "retrieval.dtw.rowscan", "compiled kernels, present only with numba"),
+    ("retrieval.search", "retrieval.dtw.kernels", "compiled kernels (band_limits_nb), present only with numba"),
 )
 
 #: Fresh-interpreter checks: name -> (module prefixes imported, prefixes skipped, forbidden).
@@ -616,18 +620,18 @@ def test_checkers_catch_imports_that_bypass_a_package(tmp_path):
         tmp_path,
         {
             "retrieval/__init__.py": '"""R."""\n',
-            "retrieval/dtw/__init__.py": '"""D."""\nfrom retrieval.dtw.kernels import k\n',
-            "retrieval/dtw/kernels.py": "k = 1\n",
+            "retrieval/dtw/__init__.py": '"""D."""\nfrom retrieval.dtw.lower_bounds import k\n',
+            "retrieval/dtw/lower_bounds.py": "k = 1\n",
             "retrieval/dtw/jit.py": "numba = None\n",
             "retrieval/search/__init__.py": '"""S."""\n',
-            "retrieval/search/fast.py": "from retrieval.dtw.kernels import k\nfrom retrieval.dtw import k as k2\n"
+            "retrieval/search/fast.py": "from retrieval.dtw.lower_bounds import k\nfrom retrieval.dtw import k as k2\n"
             "from retrieval.dtw.jit import numba\n",
         },
         packages=("retrieval",),
     )
     offences = facade_offences(modules, root=tmp_path)
     assert len(offences) == 1 and offences[0].startswith("retrieval/search/fast.py:1: retrieval.search.fast imports "
-                                                         "retrieval.dtw.kernels directly"), offences
+                                                         "retrieval.dtw.lower_bounds directly"), offences
 
 
 def test_rules_name_only_known_units():

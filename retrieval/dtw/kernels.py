@@ -89,7 +89,10 @@ if HAVE_NUMBA:
     # Each kernel writes the recurrence's min over the three predecessors out in full. A
     # shared @njit helper for it gave the same numbers but ran the code kernel about 5x
     # slower (2.1 ms -> 10.7 ms for one 1000x1000 code pair, measured side by side on an
-    # idle machine; the cause was not investigated). Keep the copies.
+    # idle machine; the cause was not investigated). Keep the copies. Measured again with
+    # numba 0.68 and ``inline="always"`` (issue 30): 17 -> 40 ms for a 1000x1000 pair on a
+    # busy machine, so the fast search's corridor DP (:func:`retrieval.dtw.rowscan.plain_dtw_raw`)
+    # keeps its copy too. The re-ranking's banded kernel is :func:`dtw_euclid_nb` itself.
 
     @numba.njit(cache=True, nogil=True)
     def _nb_dtw_table(a, b, table, lo, hi):
@@ -146,7 +149,12 @@ if HAVE_NUMBA:
         return prev[ny - 1]
 
     @numba.njit(cache=True, nogil=True, fastmath=False)
-    def _nb_dtw_euclid(x, y, lo, hi):
+    def dtw_euclid_nb(x, y, lo, hi, raw_limit):
+        """Raw Euclidean-cost DTW of feature rows ``x``, ``y`` within the band ``lo``/``hi``,
+        or inf as soon as a whole row's minimum exceeds ``raw_limit`` (every path crosses
+        every row and costs only grow along it; ``raw_limit = inf``: the plain DTW, every
+        row to the end). The re-ranking's banded path (:mod:`retrieval.dtw.rerank`) passes
+        its limit; each cell sums its squares dimension by dimension."""
         nx, ny, d = x.shape[0], y.shape[0], x.shape[1]
         inf = np.inf
         prev = np.full(ny, inf)
@@ -155,6 +163,7 @@ if HAVE_NUMBA:
             if i >= 2:
                 for j in range(lo[i - 2], hi[i - 2] + 1):
                     cur[j] = inf
+            rowmin = inf
             for j in range(lo[i], hi[i] + 1):
                 s = 0.0
                 for k in range(d):
@@ -170,9 +179,36 @@ if HAVE_NUMBA:
                             best = prev[j - 1]
                     if j > 0 and cur[j - 1] < best:
                         best = cur[j - 1]
-                cur[j] = np.sqrt(s) + best
+                v = np.sqrt(s) + best
+                cur[j] = v
+                if v < rowmin:
+                    rowmin = v
+            if rowmin > raw_limit:
+                return inf
             prev, cur = cur, prev
         return prev[ny - 1]
+
+    @numba.njit(cache=True, nogil=True)
+    def band_limits_nb(nx, ny, band, lo, hi):
+        """:func:`band_limits`, compiled (band >= 0; band < 0 means none)."""
+        if band < 0 or nx == 1:
+            for i in range(nx):
+                lo[i] = 0
+                hi[i] = ny - 1
+            return
+        slope = (ny - 1) / (nx - 1)
+        r = float(band)
+        if slope > r:
+            r = slope
+        one = 1.0 if ny > 1 else 0.0
+        if one > r:
+            r = one
+        for i in range(nx):
+            centre = i * slope
+            x = np.ceil(centre - r - 1e-9)
+            y = np.floor(centre + r + 1e-9)
+            lo[i] = int(min(max(x, 0.0), ny - 1))
+            hi[i] = int(min(max(y, 0.0), ny - 1))
 
 
 # --------------------------------------------------------------------------- numpy path
@@ -273,7 +309,7 @@ def dtw_features(
         raise DTWError(f"feature widths differ: {x.shape[1]} vs {y.shape[1]}")
     lo, hi = band_limits(len(x), len(y), band)
     if resolve_backend(backend) == "numba":
-        raw = _nb_dtw_euclid(x, y, lo, hi)
+        raw = dtw_euclid_nb(x, y, lo, hi, np.inf)
     else:
         raw = dtw_cost_numpy(_euclidean_matrix(x, y), lo, hi)
     return float(raw) / (len(x) + len(y)) if normalize else float(raw)

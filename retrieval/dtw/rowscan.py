@@ -1,5 +1,6 @@
-"""Row-by-row look-up DTW in numpy, each row one min-plus scan, with early abandoning —
-the tablet's (no numba) exact DP for the fast search.
+"""Row-by-row look-up DTW with early abandoning and a pruned corridor — the fast search's
+exact frame-level DP: :func:`plain_dtw_raw` compiled (numba), :func:`dtw_rows_numpy` its
+numpy twin (the tablet's), each row one min-plus scan.
 
 Recurrence (as in :mod:`retrieval.dtw.kernels`): ``D[i, j] = c[i, j] + min(D[i−1, j],
 D[i, j−1], D[i−1, j−1])``, ``D[0, 0] = c[0, 0]``. With ``m[j] = min(D[i−1, j],
@@ -35,6 +36,8 @@ limit is unchanged) and the DP returns ∞ as soon as a row is all dead.
 from __future__ import annotations
 
 import numpy as np
+
+from retrieval.dtw.jit import HAVE_NUMBA, numba
 
 
 def dtw_rows_numpy(cost: np.ndarray, rest_row: np.ndarray | None = None, rest_col: np.ndarray | None = None,
@@ -73,3 +76,62 @@ def dtw_rows_numpy(cost: np.ndarray, rest_row: np.ndarray | None = None, rest_co
         np.minimum(m[1:], row[:-1], out=m[1:])
     return float(row[-1])
 
+
+if HAVE_NUMBA:  # optional: numba (the kernel below exists only where it is installed)
+
+    @numba.njit(cache=True, nogil=True)
+    def plain_dtw_raw(a_row, b, R, lo, hi, rest_row, rest_col, limit, norm, prev, cur):
+        """Row-by-row look-up DTW with band limits, early abandoning and a pruned corridor
+        (cells whose value plus the bound of the rows/columns still to come exceeds the
+        limit are dead; a row stops where nothing live can feed it): the numbers of
+        the seed's look-up DTW (:func:`retrieval.dtw.kernels.dtw_codes`) with the difference table whenever the result
+        is within the limit, inf otherwise. ``a_row[i]`` is query frame i's row of ``R``
+        (the fast search's ``query_rows``), so a cell costs one look-up, as in the seed's full table."""
+        nx, ny = a_row.shape[0], b.shape[0]
+        inf = np.inf
+        # the exact test (v + x) / norm > limit is done only near or above the limit
+        near = limit * norm * (1.0 - 1e-9)
+        for j in range(ny):
+            prev[j] = inf
+        ihi = -1  # live column range of the previous row (row -1: only the virtual start)
+        ilo = 0
+        for i in range(nx):
+            for j in range(ny):
+                cur[j] = inf
+            Ri = R[a_row[i]]
+            rr = rest_row[i]
+            jstart = lo[i]
+            if i > 0 and ilo > jstart:
+                jstart = ilo
+            nlo = -1
+            nhi = -1
+            for j in range(jstart, hi[i] + 1):
+                if j > ihi + 1 and (j == 0 or cur[j - 1] == inf) and not (i == 0 and j == 0):
+                    break  # only a dead left neighbour could feed this cell and the rest
+                if i == 0 and j == 0:
+                    best = 0.0
+                else:
+                    best = inf
+                    if i > 0:
+                        best = prev[j]
+                        if j > 0 and prev[j - 1] < best:
+                            best = prev[j - 1]
+                    if j > 0 and cur[j - 1] < best:
+                        best = cur[j - 1]
+                v = np.float64(Ri[b[j]]) + best
+                x = rest_col[j]
+                if rr > x:
+                    x = rr
+                if v == inf or (v + x > near and (v + x) / norm > limit):
+                    cur[j] = inf  # dead: no path through it can finish within the limit
+                else:
+                    cur[j] = v
+                    if nlo < 0:
+                        nlo = j
+                    nhi = j
+            if nlo < 0:
+                return inf
+            ilo = nlo
+            ihi = nhi
+            prev, cur = cur, prev
+        return prev[ny - 1]

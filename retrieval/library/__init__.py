@@ -4,6 +4,9 @@ the bundled library's builder, search by pose (:class:`PoseSearch`), search by p
 (:class:`ActSearch`, "Act it out") and the library's unsupervised groups (:func:`group`)."""
 from __future__ import annotations
 
+# the re-ranking kernels and what StoryBeamSearcher answers, for callers of the library
+from retrieval.dtw import dtw_features_abandon, dtw_features_abandon_t, dtw_features_many
+from retrieval.search import Hit
 from retrieval.library.act_search import ActHit, ActSearch
 from retrieval.library.bundle import SELECTION as BUNDLE_SELECTION
 from retrieval.library.bundle import build as build_bundle
@@ -33,9 +36,8 @@ from retrieval.library.grouping import (
 )
 from retrieval.library.index import MotionIndex
 from retrieval.library.motion_choice import choose_clip, clip_path
-from retrieval.library.rerank_kernel import dtw_features_abandon, dtw_features_abandon_t, dtw_features_many
 from retrieval.library.storybeam_search import DIMS as STORYBEAM_DIMS
-from retrieval.library.storybeam_search import SHORTLIST, Hit, StoryBeamSearcher
+from retrieval.library.storybeam_search import SHORTLIST, StoryBeamSearcher
 from retrieval.library.pose_search import (
     CHARACTERISTIC,
     PoseHit,

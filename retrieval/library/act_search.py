@@ -252,14 +252,11 @@ class ActSearch:
         # the relative columns per the query, as the library's per window (idempotent)
         q = np.ascontiguousarray(self.feature_set.relative_to_segment(q).astype(np.float32), dtype=np.float64)
         drop = {i for t in exclude for i in self._entries.get(t, ())}
-        n = len(self.index)
-        # several windows of one clip may rank high: rank RANK_FACTOR·k windows, answer k clips
-        want = min(n, max(self.shortlist, RANK_FACTOR * k) + len(drop))
-        if want <= len(drop):
+        if len(drop) >= len(self.index):
             return []
+        # several windows of one clip may rank high: rank RANK_FACTOR·k windows, answer k clips
         s = self.searcher
-        res = s.searcher.search([s.quantizer.encode(q)], k=want, parallel=False)
-        cands = [(int(i), float(d)) for i, d in zip(res.indices[0], res.distances[0]) if i >= 0 and int(i) not in drop]
+        cands = s.shortlist_of(q, RANK_FACTOR * k, exclude=drop)
         out: list[ActHit] = []
         seen: set[str] = set()
         fps = self.index.fps

@@ -16,7 +16,7 @@ turning rate, :mod:`retrieval.features.storybeam_set`):
    features — and the shortlist is sorted by it (ties: code distance, then library
    order). A candidate is abandoned as soon as its partial DTW exceeds the
    ``k``-th best so far, which changes no answer
-   (:func:`~retrieval.library.rerank_kernel.dtw_features_abandon`: bit for bit the
+   (:func:`~retrieval.dtw.rerank.dtw_features_abandon`: bit for bit the
    baseline's kernel otherwise). A matrix-product form of the cost matrix was measured
    and dropped (no faster with one BLAS thread; far slower with OpenBLAS's default
    threads on a busy machine; docs/results.md).
@@ -54,21 +54,20 @@ re-ranking kernel — 288 bytes per 18-D frame).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Sequence
+from typing import Collection, Sequence
 
 import numpy as np
 
 from retrieval.codes import DiffTable, Quantizer
 from retrieval.errors import StoryBeamError
-from retrieval.dtw import resolve_backend
-from retrieval.library.rerank_kernel import (
+from retrieval.dtw import (
     dtw_features_abandon,
     dtw_features_abandon_t,
     dtw_features_many,
+    resolve_backend,
     rows_kernel_ready,
 )
-from retrieval.search import FastSearcher
+from retrieval.search import FastSearcher, Hit
 
 #: Default number of code-nearest clips re-ranked by exact float DTW (the ablation in
 #: docs/results.md: accuracy against speed).
@@ -91,16 +90,6 @@ def centre(features: np.ndarray) -> np.ndarray:
     shape over time is kept."""
     f = np.asarray(features, dtype=np.float64)
     return f - f.mean(axis=0, keepdims=True)
-
-
-@dataclass(frozen=True)
-class Hit:
-    """One re-ranked answer: library ``index``, exact float-DTW ``distance`` and the code
-    DTW distance ``code_distance`` that shortlisted it."""
-
-    index: int
-    distance: float
-    code_distance: float
 
 
 class StoryBeamSearcher:
@@ -151,21 +140,31 @@ class StoryBeamSearcher:
         return self.searcher.backend
 
     def search(self, query: np.ndarray, k: int = 1, codes: np.ndarray | None = None,
-               exclude: int | None = None) -> list[Hit]:
+               exclude: int | Collection[int] | None = None) -> list[Hit]:
         """The ``k`` nearest clips to the (frames, d) float features ``query`` by exact
-        float DTW among the code shortlist (``max(shortlist, k)`` clips, plus one when
-        ``exclude`` — a library position to leave out — is given), nearest first."""
+        float DTW among the code shortlist (:meth:`shortlist_of`: ``max(shortlist, k)``
+        clips, plus one per library position in ``exclude`` — one position or several —
+        which are left out), nearest first: the two steps of the module docstring."""
         q = np.ascontiguousarray(query, dtype=np.float64)
         if q.ndim != 2 or q.shape[0] == 0 or q.shape[1] != self.features[0].shape[1]:
             raise StoryBeamError(f"storybeam search: query features must be (frames, {self.features[0].shape[1]}), "
                                  f"got {q.shape}")
         if k <= 0:
             return []
-        c = self.quantizer.encode(q) if codes is None else np.ascontiguousarray(codes, dtype=np.int32)
-        want = min(len(self), max(self.shortlist, k) + (exclude is not None))
+        return self.rerank(q, self.shortlist_of(q, k, codes, exclude), k)
+
+    def shortlist_of(self, query: np.ndarray, k: int, codes: np.ndarray | None = None,
+                     exclude: int | Collection[int] | None = None) -> list[tuple[int, float]]:
+        """Step 1, the code shortlist of (frames, d) float features ``query`` (``codes``: its
+        codes, when the caller has them): the ``max(shortlist, k)`` code-nearest clips, plus
+        one per position in ``exclude``, those positions then dropped, as (library index,
+        code distance) pairs in code order (ties by library order) — what :meth:`rerank`
+        takes."""
+        drop = () if exclude is None else (exclude,) if isinstance(exclude, (int, np.integer)) else exclude
+        c = self.quantizer.encode(query) if codes is None else np.ascontiguousarray(codes, dtype=np.int32)
+        want = min(len(self), max(self.shortlist, k) + len(drop))
         res = self.searcher.search([c], k=want, parallel=False)
-        cands = [(int(i), float(d)) for i, d in zip(res.indices[0], res.distances[0]) if i >= 0 and i != exclude]
-        return self.rerank(q, cands, k)
+        return [(int(i), float(d)) for i, d in zip(res.indices[0], res.distances[0]) if i >= 0 and int(i) not in drop]
 
     def identity_searcher(self) -> "StoryBeamSearcher":
         """The searcher of :meth:`find`: the same method over the library's centred

@@ -1,24 +1,19 @@
 """Exact nearest-clip search over code sequences: the fast k-NN search
-(:class:`FastSearcher`), the pruned subsequence search (:class:`SubsequenceSearcher`) and
-the brute-force references they must equal (:mod:`~retrieval.search.reference`)."""
+(:class:`FastSearcher`: the API in :mod:`~retrieval.search.fast`, its compiled kernels and
+their numpy twins in modules of their own), the pruned subsequence search
+(:class:`SubsequenceSearcher`) and the brute-force references they must equal
+(:mod:`~retrieval.search.reference`)."""
 from __future__ import annotations
 
-from retrieval.search.fast import (
-    MODES,
-    STAGES,
-    FastSearcher,
-    PackedCodes,
-    SearchResult,
-    SearchStats,
-    runs_dtw_numpy,
-    warm_up,
-)
+from retrieval.search.fast import MODES, STAGES, FastSearcher, warm_up
+from retrieval.search.packed import PackedCodes
+from retrieval.search.results import Hit, SearchResult, SearchStats
 from retrieval.search.reference import (
     brute_force,
     brute_force_runs,
     brute_force_subsequence,
 )
-from retrieval.search.subsequence import SubsequenceHit, SubsequenceSearcher
+from retrieval.search.subsequence import SubsequenceSearcher
 
 __all__ = [
     "MODES",
@@ -27,9 +22,8 @@ __all__ = [
     "SearchStats",
     "SearchResult",
     "FastSearcher",
-    "runs_dtw_numpy",
     "warm_up",
-    "SubsequenceHit",
+    "Hit",
     "SubsequenceSearcher",
     "brute_force",
     "brute_force_runs",

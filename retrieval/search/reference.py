@@ -9,8 +9,7 @@ from typing import Sequence
 import numpy as np
 
 from retrieval.codes import DiffTable
-from retrieval.dtw import dtw_codes, find_subsequence, run_length_encode
-from retrieval.search.fast import runs_dtw_numpy
+from retrieval.dtw import dtw_codes, find_subsequence, run_length_encode, runs_dtw_numpy
 
 
 def brute_force_runs(queries: Sequence[np.ndarray], library: Sequence[np.ndarray], table: DiffTable,

@@ -182,6 +182,15 @@ if HAVE_NUMBA:
         return out
 
     @numba.njit(cache=True, nogil=True)
+    def segment_bounds_nb(nruns, nseg):
+        """Run boundaries of ``nseg`` segments of near-equal run counts (the compiled
+        :func:`segment_split`, ``nseg <= nruns``)."""
+        b = np.empty(nseg + 1, np.int64)
+        for s in range(nseg + 1):
+            b[s] = (s * nruns + nseg // 2) // nseg
+        return b
+
+    @numba.njit(cache=True, nogil=True)
     def segment_rows(R, q_rows, q_heights, bounds, Rs, H):  # pragma: no cover - compiled
         """``Rs[s, t] = min_{p ∈ segment s} R[q_rows[p], t]`` and ``H[s] = Σ_{p ∈ s}
         q_heights[p]`` for the segments ``bounds`` (:func:`segment_split`)."""

@@ -16,23 +16,13 @@ most clips without running their DP:
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
 from retrieval.codes import DiffTable
 from retrieval.dtw import DTWError, envelope_sums, find_subsequence
-
-
-@dataclass(frozen=True)
-class SubsequenceHit:
-    """One clip's best match: library ``index``, frames ``start``..``end`` (inclusive)."""
-
-    index: int
-    start: int
-    end: int
-    distance: float
+from retrieval.search.results import Hit
 
 
 class SubsequenceSearcher:
@@ -49,7 +39,7 @@ class SubsequenceSearcher:
     def __len__(self) -> int:
         return len(self.library)
 
-    def search(self, query: np.ndarray, k: int = 5) -> list[SubsequenceHit]:
+    def search(self, query: np.ndarray, k: int = 5) -> list[Hit]:
         if k < 1:
             raise DTWError(f"k must be >= 1, got {k}")
         q = np.ascontiguousarray(query, dtype=np.int32)
@@ -69,4 +59,4 @@ class SubsequenceSearcher:
             completed += 1
             best = sorted(best + [(m.distance, int(c), m.start, m.end)])[:k]
         self.last_completed = completed
-        return [SubsequenceHit(i, s, e, d) for d, i, s, e in best]
+        return [Hit(i, d, start=s, end=e) for d, i, s, e in best]

@@ -156,3 +156,16 @@ def test_kernel_cache_folder_follows_every_kernel_source(tmp_path):
     child = subprocess.run([sys.executable, "-c", "import os, retrieval.dtw; print(os.environ['NUMBA_CACHE_DIR'])"],
                            capture_output=True, text=True, env=dict(os.environ), check=True)
     assert child.stdout.strip() == here
+
+
+def test_every_module_with_compiled_kernels_keys_the_cache():
+    """A module that compiles kernels but is missing from KERNEL_MODULES would keep its
+    callers' cached code stale after an edit (the cache folder would not move)."""
+    from pathlib import Path
+
+    import retrieval
+    from retrieval.dtw import KERNEL_MODULES
+
+    src = Path(retrieval.__file__).resolve().parent
+    compiling = {str(p.relative_to(src)) for p in src.rglob("*.py") if "numba.njit(" in p.read_text()}
+    assert compiling == set(KERNEL_MODULES)

@@ -137,7 +137,7 @@ def test_numpy_plain_path_without_bounds_and_with_inexact_sums_answers_as_brute_
     "runs" mode with a table whose sums may round (the anti-diagonal DP, not row scans)."""
     from retrieval.dtw import run_length_encode
     from retrieval.search import FastSearcher
-    from retrieval.search.fast import runs_dtw_numpy
+    from retrieval.dtw import runs_dtw_numpy
 
     table = DiffTable.from_ratios(RATIOS)
     rng = np.random.default_rng(6)

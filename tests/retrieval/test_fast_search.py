@@ -477,7 +477,7 @@ def test_least_first_is_the_head_of_a_stable_sort():
     them all: the same indices in the same order as a stable argsort's first ones, ties
     (many here) to the lower index."""
     pytest.importorskip("numba")
-    from retrieval.search.fast import _least_first
+    from retrieval.search.order import least_first
     rng = np.random.default_rng(58)
     for _ in range(300):
         n = int(rng.integers(1, 60))
@@ -485,7 +485,7 @@ def test_least_first_is_the_head_of_a_stable_sort():
         if rng.random() < 0.2:
             v[rng.integers(0, n)] = np.inf
         for m in (1, 3, 7, n, n + 4):
-            assert np.array_equal(_least_first(v, m), np.argsort(v, kind="mergesort")[:m])
+            assert np.array_equal(least_first(v, m), np.argsort(v, kind="mergesort")[:m])
 
 
 @pytest.mark.parametrize("backend", ["numba", "numpy"])

@@ -64,10 +64,10 @@ def test_segments_split_runs_evenly_and_cover_all():
 
 def test_compiled_segment_split_equals_numpy():
     pytest.importorskip("numba")
-    from retrieval.search.fast import _segment_bounds
+    from retrieval.search.segment_bound import segment_bounds_nb
     for n_runs in range(1, 70):
         for n_seg in range(1, n_runs + 1):
-            assert np.array_equal(_segment_bounds(n_runs, n_seg), segment_split(n_runs, n_seg))
+            assert np.array_equal(segment_bounds_nb(n_runs, n_seg), segment_split(n_runs, n_seg))
 
 
 def test_segment_cover_is_below_the_dtw_and_equals_range_cover_with_one_run_each(tables):

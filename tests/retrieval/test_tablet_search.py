@@ -214,7 +214,7 @@ def test_runs_row_scans_in_batches_equal_one_by_one_and_the_compiled_search(tabl
     search (batches of 8, 16, …, pruning between them) answers as the compiled one for k
     of 1 to 12, on libraries larger than a batch."""
     from retrieval.dtw import run_length_encode
-    from retrieval.search.fast import runs_dtw_rows_batch_numpy, runs_dtw_rows_numpy
+    from retrieval.dtw import runs_dtw_rows_batch_numpy, runs_dtw_rows_numpy
 
     _full, diff = tables
     rng = np.random.default_rng(33)
@@ -244,7 +244,7 @@ def test_runs_row_scan_equals_the_runs_dp_and_abandons_only_above_the_limit(tabl
     and returns inf only when the distance is above the limit; with numba, the compiled
     "runs" search and the numpy one answer alike."""
     from retrieval.dtw import run_length_encode
-    from retrieval.search.fast import runs_dtw_numpy, runs_dtw_rows_numpy
+    from retrieval.dtw import runs_dtw_numpy, runs_dtw_rows_numpy
 
     _full, diff = tables
     rng = np.random.default_rng(21)

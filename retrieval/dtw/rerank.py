@@ -1,5 +1,6 @@
 """Early-abandoning exact DTW on float features, for re-ranking a shortlist
-(:mod:`retrieval.library.storybeam_search`).
+(:mod:`retrieval.library.storybeam_search`): the compiled kernels (numba) beside their numpy
+twins (:func:`sequential_cost_matrix`, :func:`dtw_features_many`).
 
 :func:`dtw_features_abandon` is bit for bit :func:`retrieval.dtw.dtw_features`'s
 recurrence (each cell's Euclidean cost summed dimension by dimension), with early
@@ -37,48 +38,13 @@ from typing import Sequence
 
 import numpy as np
 
-from retrieval.dtw import band_limits, dtw_cost_numpy, dtw_features, resolve_backend
 from retrieval.dtw.jit import HAVE_NUMBA, numba
+from retrieval.dtw.kernels import band_limits, dtw_cost_numpy, dtw_features, resolve_backend
+
+if HAVE_NUMBA:  # optional: numba (the kernels below exist only where it is installed)
+    from retrieval.dtw.kernels import dtw_euclid_nb
 
 _SLACK = 1e-12
-
-if HAVE_NUMBA:
-
-    @numba.njit(cache=True, nogil=True, fastmath=False)
-    def _nb_dtw_euclid_abandon(x, y, lo, hi, raw_limit):  # pragma: no cover - compiled
-        nx, ny, d = x.shape[0], y.shape[0], x.shape[1]
-        inf = np.inf
-        prev = np.full(ny, inf)
-        cur = np.full(ny, inf)
-        for i in range(nx):
-            if i >= 2:
-                for j in range(lo[i - 2], hi[i - 2] + 1):
-                    cur[j] = inf
-            rowmin = inf
-            for j in range(lo[i], hi[i] + 1):
-                s = 0.0
-                for k in range(d):
-                    t = x[i, k] - y[j, k]
-                    s += t * t
-                if i == 0 and j == 0:
-                    best = 0.0
-                else:
-                    best = inf
-                    if i > 0:
-                        best = prev[j]
-                        if j > 0 and prev[j - 1] < best:
-                            best = prev[j - 1]
-                    if j > 0 and cur[j - 1] < best:
-                        best = cur[j - 1]
-                v = np.sqrt(s) + best
-                cur[j] = v
-                if v < rowmin:
-                    rowmin = v
-            if rowmin > raw_limit:
-                return inf
-            prev, cur = cur, prev
-        return prev[ny - 1]
-
 
 if HAVE_NUMBA:
 
@@ -141,9 +107,13 @@ if HAVE_NUMBA:
             return np.inf
         p = 0  # the last finished row's buffer
         i = 1
-        while i + 1 < nx:
+        while i < nx:
+            pair = i + 1 < nx  # a last row alone runs beside a row of zero costs, never read
             _nb_row_costs(x, i, yt, s)
-            _nb_row_costs(x, i + 1, yt, s2)
+            if pair:
+                _nb_row_costs(x, i + 1, yt, s2)
+            else:
+                s2[:] = 0.0
             prev = rows[p]
             cur = rows[(p + 1) % 3]
             nxt = rows[(p + 2) % 3]
@@ -174,31 +144,10 @@ if HAVE_NUMBA:
                 nxt[j] = w
                 if w < m2:
                     m2 = w
-            if m1 > raw_limit or m2 > raw_limit:
+            if m1 > raw_limit or (pair and m2 > raw_limit):
                 return np.inf
-            p = (p + 2) % 3
+            p = (p + 2) % 3 if pair else (p + 1) % 3
             i += 2
-        if i < nx:
-            _nb_row_costs(x, i, yt, s)
-            prev = rows[p]
-            cur = rows[(p + 1) % 3]
-            v = s[0] + prev[0]
-            cur[0] = v
-            m1 = v
-            for j in range(1, ny):
-                a = prev[j]
-                b = prev[j - 1]
-                if b < a:
-                    a = b
-                if v < a:
-                    a = v
-                v = s[j] + a
-                cur[j] = v
-                if v < m1:
-                    m1 = v
-            if m1 > raw_limit:
-                return np.inf
-            p = (p + 1) % 3
         return rows[p, ny - 1]
 
 
@@ -377,4 +326,4 @@ def dtw_features_abandon(x: np.ndarray, y: np.ndarray, limit: float = np.inf, ba
     if band is None:
         return float(_nb_dtw_euclid_abandon_rows(xf, np.ascontiguousarray(yf.T), raw_limit)) / n
     lo, hi = band_limits(len(xf), len(yf), band)
-    return float(_nb_dtw_euclid_abandon(xf, yf, lo, hi, raw_limit)) / n
+    return float(dtw_euclid_nb(xf, yf, lo, hi, raw_limit)) / n
