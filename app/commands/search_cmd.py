@@ -37,7 +37,7 @@ frontal features (:class:`retrieval.library.ActSearch`, built from ``--data``: a
 folder), and ``--exclude TRIAL,...`` leaves those trials out of the library (to evaluate a
 take of a library clip)::
 
-  {"query", "data", "mode": "video", "results": [{"rank", "name", "label", "subject",
+  {"query", "data", "mode": "video", "results": [{"rank", "trial", "label", "subject",
    "distance", "clip_path"}], "detect_rate", "pose_ms_median", "search_ms", "frames",
    "fps", "image_size", "verdict": {"ok", "reason", "seen", "detected", ...}, "clips"}
 
@@ -240,7 +240,7 @@ def _run_video(args, data: Path) -> int:
     if args.json_out != "-":
         print(f"{'rank':>4}  {'trial':<16} {'label':<10} distance")
         for i, h in enumerate(hits, 1):
-            print(f"{i:>4}  {h.name:<16} {h.label:<10} {h.distance:.5f}")
+            print(f"{i:>4}  {h.trial:<16} {h.label:<10} {h.distance:.5f}")
         note = "" if verdict.ok else f"; the app would ask to {verdict.reason.replace('_', ' ')} ({verdict.seen:.0%} seen)"
         print(f"{report['frames']} frames, body in {take.detect_rate:.0%}, pose {take.pose_ms_median:.1f} ms/frame, "
               f"search {report['search_ms']:.2f} ms, {len(search)} clips{note}")

@@ -38,7 +38,7 @@ from retrieval.motion import LANDMARK_INDEX  # BlazePose's landmarks by name
 if TYPE_CHECKING:
     from ar.body import BodyPose, BodyTake
     from ar.camera_sources import CameraSource
-    from retrieval.library import ActHit, ActSearch
+    from retrieval.library import ActSearch, Match
 
 log = logging.getLogger(__name__)
 
@@ -255,7 +255,7 @@ class ActItOut:
         """Whether ``take`` shows enough of the body (:func:`judge_poses`)."""
         return judge_poses(list(take.poses), take.image_size, self.min_seen)
 
-    def results(self, take: BodyTake, k: int = RESULTS, exclude: Collection[str] = ()) -> list[ActHit]:
+    def results(self, take: BodyTake, k: int = RESULTS, exclude: Collection[str] = ()) -> list[Match]:
         """The ``k`` library motions nearest to the take (the library without ``exclude``)."""
         if self.search is None:
             raise ActItOutError("no motion library to search (Act it out needs the frontal-feature library)")

@@ -485,14 +485,14 @@ class ActItOutView(ModalView):
         self.status.text = self.t("act_found") if hits else self.t("no_clips")
         for h in hits:
             name = self.t(f"motion_{h.label}") if h.label in MOTION_COLOURS else h.label
-            tile = ClipTile(h.name, f"{name}  {h.name}", h.label if h.label in MOTION_COLOURS else "more",
+            tile = ClipTile(h.trial, f"{name}  {h.trial}", h.label if h.label in MOTION_COLOURS else "more",
                             MOTION_COLOURS.get(h.label, (0.4, 0.4, 0.4)), self.thumbs, lambda h=h: self._pick(h))
             self.tiles.append(tile)
             self.grid.add_widget(tile)
 
     def _pick(self, hit) -> None:
         self.close()
-        self.on_pick(hit.label, hit.name)
+        self.on_pick(hit.label, hit.trial)
 
     def close(self) -> None:
         """Stop the camera and the worker, forget the picture, close the view."""

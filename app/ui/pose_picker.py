@@ -34,7 +34,7 @@ from app.ui.widgets import IconButton, big_label, filled, tile_grid
 from retrieval.errors import StoryBeamError
 
 if TYPE_CHECKING:
-    from retrieval.library import FolderGrouping, PoseHit, PoseSearch
+    from retrieval.library import FolderGrouping, Match, PoseSearch
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +76,7 @@ class LibraryExtras(BackgroundLoad):
             self.groups_error = str(exc)
             log.warning("library groups unavailable: %s", exc)
 
-    def search(self, model: PoseModel, k: int = RESULTS) -> list[PoseHit]:
+    def search(self, model: PoseModel, k: int = RESULTS) -> list[Match]:
         """The clips passing closest through the figure's pose ([] until ready)."""
         if self.pose_search is None:
             return []
@@ -115,7 +115,7 @@ class PosePicker(ModalView):
         self.t, self.on_pick = app.t, on_pick
         self.extras = library_extras(app)
         self.thumbs = app.motion_thumbnails()
-        self.hits: list[PoseHit] = []
+        self.hits: list[Match] = []
         self.tiles: list[ClipTile] = []
         self.searches = 0
         box = filled(BoxLayout(orientation="vertical", padding=dp(12), spacing=dp(8)), (0.93, 0.97, 1, 1))
@@ -156,7 +156,7 @@ class PosePicker(ModalView):
             self.tiles.append(tile)
             self.grid.add_widget(tile)
 
-    def _pick(self, hit: PoseHit) -> None:
+    def _pick(self, hit: Match) -> None:
         self.dismiss()
         self.on_pick(hit.label, hit.trial)
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 # the re-ranking kernels and what StoryBeamSearcher answers, for callers of the library
 from retrieval.dtw import dtw_features_abandon, dtw_features_abandon_t, dtw_features_many
 from retrieval.search import Hit
-from retrieval.library.act_search import ActHit, ActSearch
+from retrieval.library.act_search import ActSearch
 from retrieval.library.bundle import SELECTION as BUNDLE_SELECTION
 from retrieval.library.bundle import build as build_bundle
 from retrieval.library.clip import Clip, Match
@@ -40,7 +40,6 @@ from retrieval.library.storybeam_search import DIMS as STORYBEAM_DIMS
 from retrieval.library.storybeam_search import SHORTLIST, StoryBeamSearcher
 from retrieval.library.pose_search import (
     CHARACTERISTIC,
-    PoseHit,
     PoseSearch,
     characteristic_frame,
     pose_features,
@@ -57,7 +56,6 @@ __all__ = [
     "load_dataset",
     "MotionIndex",
     "ActSearch",
-    "ActHit",
     "StoryBeamSearcher",
     "Hit",
     "SHORTLIST",
@@ -70,7 +68,6 @@ __all__ = [
     "BUNDLE_SELECTION",
     "build_bundle",
     "pose_features",
-    "PoseHit",
     "PoseSearch",
     "CHARACTERISTIC",
     "characteristic_frame",

@@ -21,7 +21,7 @@ agree whatever the clip around the window does.
 s). DTW of a short take against a long clip must warp the whole clip onto the take, so
 the library is indexed as *windows* of :data:`WINDOW_SECONDS` (the take's length) every
 half window; a clip shorter than 1.25 windows is one entry. A clip's distance is its
-nearest window's, and each clip is answered once (:attr:`ActHit.start_s` / ``end_s``
+nearest window's, and each clip is answered once (:attr:`Match.start_s` / ``end_s``
 say which part matched). Measured on the true joints of the 145 CMU trials the reported
 bench does not perform (their middle 3.5 s as the query, own trial left out, 1-NN):
 whole clips 0.910, windows of 3.5 s 0.945 (dance 0.62 → 0.81), 4 s 0.938, 5 s 0.931.
@@ -38,7 +38,7 @@ subject and motion file).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Callable, Collection, Mapping, Sequence
 
@@ -46,7 +46,7 @@ import numpy as np
 
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.features import FrontalFeatureSet, get_feature_set, measured_rest
-from retrieval.library.clip import Clip
+from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import load_dataset
 from retrieval.library.index import MotionIndex
 from retrieval.library.storybeam_search import StoryBeamSearcher
@@ -68,25 +68,6 @@ WINDOW_SECONDS = 3.5
 #: ``RANK_FACTOR·k`` windows hold fewer than ``k`` clips, every shortlisted window is ranked.
 RANK_FACTOR = 3
 ACT_JSON = "act.json"
-
-
-@dataclass(frozen=True)
-class ActHit:
-    """One answer: the clip's trial ``name``, class ``label``, performer ``subject``, the
-    DTW ``distance`` of its frontal features to the take's, its motion file, and the part
-    of the clip that matched (``start_s`` to ``end_s``, seconds)."""
-
-    name: str
-    label: str
-    subject: str
-    distance: float
-    clip_path: str
-    start_s: float = 0.0
-    end_s: float = 0.0
-
-    def as_dict(self) -> dict:
-        return {"name": self.name, "label": self.label, "subject": self.subject, "distance": self.distance,
-                "clip_path": self.clip_path, "start_s": self.start_s, "end_s": self.end_s}
 
 
 def resample_positions(pos: np.ndarray, fps: float, to_fps: float) -> np.ndarray:
@@ -239,7 +220,7 @@ class ActSearch:
         jm = dict(joint_map)
         return self.feature_set.from_positions(pos, jm, body_size, self.fps, measured_rest(pos, jm))
 
-    def search_features(self, features: np.ndarray, k: int = 5, exclude: Collection[str] = ()) -> list[ActHit]:
+    def search_features(self, features: np.ndarray, k: int = 5, exclude: Collection[str] = ()) -> list[Match]:
         """The ``k`` nearest clips to (frames, 17) frontal features, nearest first, the
         trials named in ``exclude`` left out."""
         if k < 1:
@@ -257,7 +238,7 @@ class ActSearch:
         # several windows of one clip may rank high: rank RANK_FACTOR·k windows, answer k clips
         s = self.searcher
         cands = s.shortlist_of(q, RANK_FACTOR * k, exclude=drop)
-        out: list[ActHit] = []
+        out: list[Match] = []
         seen: set[str] = set()
         fps = self.index.fps
         n_rank = min(len(cands), RANK_FACTOR * k)
@@ -271,15 +252,16 @@ class ActSearch:
                 continue
             seen.add(name)
             start = self.starts[h.index]
-            out.append(ActHit(name, self.index.labels[h.index], self.subjects[h.index], h.distance, self.paths[h.index],
-                              start / fps, (start + len(self.index.codes[h.index])) / fps))
+            out.append(Match(name, self.index.labels[h.index], h.distance, subject=self.subjects[h.index],
+                             clip_path=self.paths[h.index], start_s=start / fps,
+                             end_s=(start + len(self.index.codes[h.index])) / fps))
             if len(out) == k:
                 break
         return out
 
     def search_take(self, world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray, fps: float,
                     image_size: tuple[int, int] | None = None, k: int = 5,
-                    exclude: Collection[str] = ()) -> list[ActHit]:
+                    exclude: Collection[str] = ()) -> list[Match]:
         """The ``k`` clips nearest to a camera take: BlazePose world landmarks (T, 33, 3),
         image landmarks (T, 33, 2) in pixels and per-frame ``valid`` flags (what
         ``BodyTake.arrays()`` gives, visibility aside) at ``fps``; trials in ``exclude`` are
@@ -287,7 +269,7 @@ class ActSearch:
         return self.search_features(self.take_features(world, image_xy, valid, fps, image_size), k, exclude)
 
     def search_positions(self, positions: np.ndarray, fps: float, k: int = 5, exclude: Collection[str] = (),
-                         joint_map: Mapping[str, int] | None = None, body_size: float | None = None) -> list[ActHit]:
+                         joint_map: Mapping[str, int] | None = None, body_size: float | None = None) -> list[Match]:
         """The ``k`` clips nearest to true joint positions (T, J, 3) (metres, Y up) at
         ``fps``: ``joint_map`` maps canonical names to columns (default: the canonical
         order, :data:`~retrieval.motion.CANONICAL_JOINTS`), ``body_size`` is the leg length
@@ -318,5 +300,5 @@ def positions_leg_length(pos: np.ndarray, joint_map: Mapping[str, int]) -> float
     return size
 
 
-__all__ = ["ACT_SHORTLIST", "WINDOW_SECONDS", "RANK_FACTOR", "ActHit", "ActSearch", "FEATURE_SET", "positions_leg_length",
+__all__ = ["ACT_SHORTLIST", "WINDOW_SECONDS", "RANK_FACTOR", "ActSearch", "FEATURE_SET", "positions_leg_length",
            "resample_positions", "windows"]

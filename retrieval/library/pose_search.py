@@ -25,7 +25,6 @@ accuracy.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -33,7 +32,7 @@ import numpy as np
 
 from retrieval.errors import StoryBeamError
 from retrieval.features import get_feature_set
-from retrieval.library.clip import Clip
+from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import load_dataset
 from retrieval.library.index import MotionIndex
 
@@ -70,22 +69,6 @@ def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size
     return out
 
 
-@dataclass(frozen=True)
-class PoseHit:
-    """One clip that passes through the pose: its ``frame`` nearest to it, the feature
-    ``distance`` there and the code search's ``code_distance``."""
-
-    trial: str
-    label: str
-    frame: int
-    distance: float
-    code_distance: float
-
-    def as_dict(self) -> dict:
-        return {"trial": self.trial, "label": self.label, "frame": self.frame, "distance": self.distance,
-                "code_distance": self.code_distance}
-
-
 class PoseSearch:
     """Pose queries over a :class:`MotionIndex` and its clips' features (see the module
     docstring). ``features[i]`` are the (frames, dim) features of the index's clip ``i``,
@@ -119,7 +102,7 @@ class PoseSearch:
         return len(self.index)
 
     def search(self, pose: np.ndarray, k: int = 5, shortlist: int = SHORTLIST,
-               exclude: str | None = None) -> list[PoseHit]:
+               exclude: str | None = None) -> list[Match]:
         """The ``k`` clips passing closest through ``pose`` ((dim,) features, see
         :func:`pose_features`), nearest first, ties by library order; the clip called
         ``exclude`` (a held-back query's own) is left out of the answer."""
@@ -138,7 +121,7 @@ class PoseSearch:
             i = self.index.position(m.trial)
             d = np.sqrt(((self.features[i] - q) ** 2).sum(axis=1))
             j = int(np.argmin(d))
-            hits.append((float(d[j]), i, PoseHit(m.trial, m.label, j, float(d[j]), m.distance)))
+            hits.append((float(d[j]), i, Match(m.trial, m.label, float(d[j]), frame=j, code_distance=m.distance)))
         hits.sort(key=lambda h: (h[0], h[1]))
         return [h[2] for h in hits[:k]]
 

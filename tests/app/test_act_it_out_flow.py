@@ -83,17 +83,17 @@ def test_search_by_video_reports_the_take_and_the_nearest_walks(walk_video, tmp_
     assert r["detect_rate"] >= 0.99 and r["verdict"]["ok"] and r["verdict"]["seen"] >= 0.8
     assert len(r["results"]) == 5 and [h["rank"] for h in r["results"]] == [1, 2, 3, 4, 5]
     assert r["results"][0]["label"] == "walk"
-    assert set(r["results"][0]) >= {"name", "label", "subject", "distance", "clip_path"}
+    assert set(r["results"][0]) >= {"trial", "label", "subject", "distance", "clip_path"}
     assert 0 < r["pose_ms_median"] < 1000 and 0 < r["search_ms"] < 1000  # sanity; the timings are the bench's
     print(f"search --video: pose {r['pose_ms_median']:.1f} ms/frame, search {r['search_ms']:.2f} ms, "
-          f"top {[(h['name'], h['label']) for h in r['results']]}")
+          f"top {[(h['trial'], h['label']) for h in r['results']]}")
 
-    top = r["results"][0]["name"]
+    top = r["results"][0]["trial"]
     again = tmp_path / "again.json"
     assert main(["search", "--video", str(walk_video), "--exclude", f"{top},02_01", "-k", "3",
                  "--json", str(again)]) == 0
     r2 = json.loads(again.read_text())
-    names = [h["name"] for h in r2["results"]]
+    names = [h["trial"] for h in r2["results"]]
     assert r2["exclude"] == [top, "02_01"] and top not in names and "02_01" not in names and len(names) == 3
     assert main(["search", "--video", str(walk_video), "--exclude", "99_99"]) == 1
     assert "--exclude: 99_99 not in the library" in capsys.readouterr().err
@@ -143,7 +143,7 @@ def test_act_it_out_runs_by_touch_on_the_tablet_profile(tablet_flow):
     assert r["walk_countdown_seen"] and walk["state"] == "results", walk
     assert walk["verdict"]["ok"] and walk["verdict"]["frames"] >= 100 and walk["verdict"]["detected"] >= 0.99
     assert walk["frames_shown"] >= 20 and walk["skeletons_drawn"] >= 20
-    assert walk["tiles"] == [h["name"] for h in walk["hits"]] and len(walk["tiles"]) == 6
+    assert walk["tiles"] == [h["trial"] for h in walk["hits"]] and len(walk["tiles"]) == 6
     assert walk["hits"][0]["label"] == "walk"
     assert r["motion"] == ["walk", walk["tiles"][0]] and r["path"] >= 5
     assert r["worker_stopped"] and r["texture_released"]  # the camera closed with the view

@@ -13,7 +13,7 @@ import pytest
 from retrieval.dtw import dtw_features
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.features import leg_length
-from retrieval.library import ActHit, ActSearch, clip_from_motion
+from retrieval.library import ActSearch, Match, clip_from_motion
 from retrieval.motion import canonical_joint_map, positions
 from retrieval.motion.landmarks import LandmarkError
 from tests.retrieval.test_frontal_landmarks import fake_landmarks
@@ -50,11 +50,11 @@ def test_own_joints_find_the_clip_itself(library):
     m, label, subject = motions[5]
     jm = canonical_joint_map(m.skeleton)
     hits = search.search_positions(positions(m), 30.0, k=3, joint_map=jm, body_size=leg_length(m.skeleton, jm))
-    assert isinstance(hits[0], ActHit)
-    assert hits[0].name == m.name and hits[0].distance < 1e-6
+    assert isinstance(hits[0], Match)
+    assert hits[0].trial == m.name and hits[0].distance < 1e-6
     assert hits[0].label == label and hits[0].subject == subject and hits[0].clip_path == f"/lib/{m.name}.bvh"
     assert [h.distance for h in hits] == sorted(h.distance for h in hits)
-    assert set(hits[0].as_dict()) == {"name", "label", "subject", "distance", "clip_path", "start_s", "end_s"}
+    assert set(hits[0].as_dict()) == {"trial", "label", "subject", "distance", "clip_path", "start_s", "end_s"}
     assert hits[0].start_s == 0.0 and hits[0].end_s == pytest.approx(m.n_frames / 30.0)  # short clips stay whole
 
 
@@ -65,7 +65,7 @@ def test_exclude_leaves_trials_out(library):
     same_subject = [mm.name for mm, _, s in motions if s == subject]
     hits = search.search_positions(positions(m), 30.0, k=8, exclude=same_subject, joint_map=jm,
                                    body_size=leg_length(m.skeleton, jm))
-    assert hits and not {h.name for h in hits} & set(same_subject)
+    assert hits and not {h.trial for h in hits} & set(same_subject)
     assert len(hits) == len(motions) - len(same_subject)
     assert hits[0].label == label  # the nearest other performer's clip is of the same kind
 
@@ -78,7 +78,7 @@ def test_equals_exact_dtw_over_the_library(library):
     q32 = q.astype(np.float32).astype(np.float64)
     want = sorted((dtw_features(q32, f), t) for f, t in zip(search.index.clip_features, search.index.trials))
     hits = search.search_features(q, k=len(motions), exclude=[m.name])
-    assert [h.name for h in hits] == [t for _, t in want if t != m.name]
+    assert [h.trial for h in hits] == [t for _, t in want if t != m.name]
     np.testing.assert_allclose([h.distance for h in hits], [d for d, t in want if t != m.name], rtol=1e-9)
 
 
@@ -109,7 +109,7 @@ def test_other_frame_rates_are_resampled(library):
     t60 = np.arange(int(t[-1] * 60) + 1) / 60.0
     pos60 = np.stack([np.interp(t60, t, c) for c in pos.reshape(len(pos), -1).T], 1).reshape(len(t60), *pos.shape[1:])
     hits = search.search_positions(pos60, 60.0, k=1, joint_map=jm, body_size=leg_length(m.skeleton, jm))
-    assert hits[0].name == m.name
+    assert hits[0].trial == m.name
 
 
 def test_save_and_load_answer_the_same(library, tmp_path):
@@ -159,11 +159,11 @@ def test_long_clips_are_searched_by_take_long_windows():
     jm = canonical_joint_map(sk)
     hits = search.search_positions(positions(m)[120:225], 30.0, k=4, joint_map=jm,
                                    body_size=leg_length(sk, jm))
-    assert [h.name for h in hits][0] == m.name and len({h.name for h in hits}) == len(hits) == 4  # each clip once
+    assert [h.trial for h in hits][0] == m.name and len({h.trial for h in hits}) == len(hits) == 4  # each clip once
     assert hits[0].end_s - hits[0].start_s == pytest.approx(3.5)
     hits = search.search_positions(positions(m)[120:225], 30.0, k=4, joint_map=jm, body_size=leg_length(sk, jm),
                                    exclude=[m.name])
-    assert m.name not in {h.name for h in hits} and len(hits) == 3
+    assert m.name not in {h.trial for h in hits} and len(hits) == 3
 
 
 def test_relative_features_per_window_and_per_query(tmp_path):
@@ -188,7 +188,7 @@ def test_relative_features_per_window_and_per_query(tmp_path):
     jm = canonical_joint_map(sk)
     hits = search.search_positions(positions(m)[start:start + 105], 30.0, k=1, joint_map=jm,
                                    body_size=leg_length(sk, jm))
-    assert hits[0].name == m.name and hits[0].start_s == pytest.approx(start / 30.0) and hits[0].distance < 1e-3
+    assert hits[0].trial == m.name and hits[0].start_s == pytest.approx(start / 30.0) and hits[0].distance < 1e-3
     folder = search.save(tmp_path / "act")
     meta = json.loads((folder / "act.json").read_text())
     assert meta["relative"] == list(fs.relative)
@@ -225,5 +225,5 @@ def test_the_tablet_path_answers_as_the_compiled_one_in_one_sweep(monkeypatch):
         search.searcher.searcher.backend = "numpy"  # the tablet: codes and re-ranking on numpy
         sweeps.clear()
         got = search.search_positions(*args, **kw)
-        assert [(h.name, h.distance, h.start_s) for h in got] == [(h.name, h.distance, h.start_s) for h in want]
+        assert [(h.trial, h.distance, h.start_s) for h in got] == [(h.trial, h.distance, h.start_s) for h in want]
         assert len(got) == k and len(sweeps) == 1
