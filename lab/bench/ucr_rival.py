@@ -48,7 +48,7 @@ under DTW", KDD 2012, adapted to whole-clip 1-NN with no warping window; Herrman
 
 All bounds are multiplied by ``1 − 1e−9`` before a comparison, so floating-point sums in
 another order than the DP's can never prune the true neighbour. The bounds are
-property-tested against brute force in ``tests/app/test_ucr_rival.py``.
+property-tested against brute force in ``tests/lab/test_ucr_rival.py``.
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The AR commands: board and calibrate (the AR bench is `storybeam bench ar`, tested in
-tests/app/test_bench_cli.py)."""
+tests/lab/test_bench_cli.py)."""
 from __future__ import annotations
 
 from app.cli import main
