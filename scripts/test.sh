@@ -5,6 +5,7 @@
 #                                  package without the app in a subprocess, campaigns, bench
 #                                  runs or the shared data (under 2 minutes on 2 cores)
 # Other arguments go to pytest, e.g. `bash scripts/test.sh --fast -k dtw`.
+# The numba kernels come from the cache setup.sh has just warmed (tests/conftest.py reads it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 args=()

@@ -1,5 +1,5 @@
-"""Shared test fixtures: where the shared CMU data lives, and skipping without it; and the
-``slow`` mark for every test that reads the shared data.
+"""Shared test fixtures: where the shared CMU data lives, and skipping without it; the one
+numba cache; and the ``slow`` mark for every test that reads the shared data.
 
 The fast lane (``bash scripts/test.sh --fast``, i.e. ``pytest -m "not slow"``) leaves out the
 tests marked ``slow`` -- each says why beside its mark: those that start the app (or a Kivy
@@ -17,7 +17,11 @@ from pathlib import Path
 import pytest
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(__file__).resolve().parent.parent / ".numba_cache"))
+# One numba cache: the product's ($NUMBA_CACHE_DIR, else $STORYBEAM_CACHE/numba, else
+# ~/.cache/storybeam/numba), the one scripts/setup.sh warms. Importing jit now fixes its
+# folder in the environment for this process and every child before any test can change
+# STORYBEAM_CACHE (several point it at a tmp_path) -- which would otherwise compile afresh.
+import retrieval.dtw.jit  # noqa: E402,F401  (for its side effect on os.environ)
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SHARED_DATA = Path(os.environ.get("STORYBEAM_SHARED_DATA", REPO_ROOT.parent / "shared" / "data"))

@@ -152,6 +152,7 @@ def test_bench_numpy_retrieval_on_the_bundled_library(tmp_path, monkeypatch, cap
     assert "speed-up" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # a bench run: profiles the search's variants (a minute of numba compiling on a fresh cache)
 def test_bench_fast_search_profile_on_the_bundled_library(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("STORYBEAM_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "profile.json"
