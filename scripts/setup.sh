@@ -40,6 +40,8 @@ echo "[setup] ready: $(.venv/bin/python --version)"
 # ~/.cache/storybeam/numba; one sub-folder per version of the kernels' sources). One search
 # and one subsequence search of the bundled library compile every kernel the product's search
 # path uses, so the first real `storybeam search` (demo, "More like this") loads them in ~20 ms.
+# The tests read the same cache (tests/conftest.py), so scripts/test.sh compiles only what the
+# tests use beyond the product's path (their oracles), once per version of the kernels.
 # Where numba is absent this just runs the numpy path.
 echo "[setup] compiling the search kernels ahead (cached; ~10 s the first time)"
 Q=assets/motions/bvh/02_01.bvh

@@ -44,8 +44,9 @@ def _default_cache_root() -> Path:
     return Path(os.environ.get("STORYBEAM_CACHE", Path.home() / ".cache" / "storybeam")) / "numba"
 
 
-# Where the compiled kernels are cached: NUMBA_CACHE_DIR names the root if set (the tests
-# point it into the checkout), else $STORYBEAM_CACHE/numba (default ~/.cache/storybeam/numba); either way one sub-folder per
+# Where the compiled kernels are cached: NUMBA_CACHE_DIR names the root if set, else
+# $STORYBEAM_CACHE/numba (default ~/.cache/storybeam/numba) -- the one scripts/setup.sh warms
+# and the tests read (tests/conftest.py imports this first); either way one sub-folder per
 # version of the sources (see kernel_cache_dir). The root is remembered for child
 # processes, which inherit the environment and must land in the same sub-folder.
 _cache_root = (os.environ.get("STORYBEAM_NUMBA_CACHE_ROOT") or os.environ.get("NUMBA_CACHE_DIR")

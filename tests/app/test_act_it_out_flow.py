@@ -30,6 +30,8 @@ import pytest
 from app.cli import main
 from tests.support.act_video import STORED
 
+pytestmark = pytest.mark.slow  # the real pose estimator over whole videos, and the app in a child process
+
 REPO = Path(__file__).resolve().parents[2]
 PROFILE = REPO / "tests" / "support" / "tablet_profile.py"
 

@@ -215,6 +215,7 @@ def test_calibration_save_is_atomic(tmp_path, syscalls):
     assert CameraCalibration.load(path).camera_matrix[0, 0] == 600.0
 
 
+@pytest.mark.slow  # SIGKILLs child savers
 def test_sigkill_during_calibration_saves_never_leaves_an_empty_or_partial_file(tmp_path):
     """30 real SIGKILLs of a process saving calibrations in a loop: after each, camera.json
     loads and is one of the two calibrations saved (before issue 17 a kill could leave it

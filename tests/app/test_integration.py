@@ -61,6 +61,7 @@ def _light_centroid(frame: np.ndarray) -> np.ndarray | None:
 
 
 @needs_library
+@pytest.mark.slow  # a 3-D video export in a child process
 def test_story_mp4_shows_3d_characters_walking_scene_after_scene(tmp_path):
     pytest.importorskip("pyrender")
     import imageio.v2 as imageio
@@ -121,6 +122,7 @@ def _eventually(check, seconds: float = 10.0) -> bool:
 
 
 @needs_library
+@pytest.mark.slow  # starts the app in a child process
 def test_projector_screen_preview_lights_only_the_characters(tmp_path):
     pytest.importorskip("pyrender")
     r, out = _drive(tmp_path, "projector3d")
@@ -156,6 +158,7 @@ def test_projector_screen_preview_lights_only_the_characters(tmp_path):
 
 
 @needs_library
+@pytest.mark.slow  # starts the app in a child process
 def test_more_like_this_tiles_show_animated_stick_figures(tmp_path):
     r, out = _drive(tmp_path, "thumbs")
     tiles = r["tiles"]
@@ -175,6 +178,7 @@ def test_more_like_this_tiles_show_animated_stick_figures(tmp_path):
         assert (box.mean(axis=2) < 120).sum() > 150, f"no stick figure drawn in the {t['trial']} tile"
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_import_picker_imports_by_tap_and_refuses_a_bad_package(tmp_path):
     r, _out = _drive(tmp_path, "import")
     assert r["tiles"] == ["broken.zip", "good.zip"]
@@ -239,6 +243,7 @@ def test_export_falls_back_to_2d_and_says_why_when_3d_cannot_render(tmp_path, mo
     assert len(frames) == video_export.frame_count(story, 5) == result.frames
 
 
+@pytest.mark.slow  # a video export in a child process
 def test_export_child_process_failure_is_one_plain_error(tmp_path):
     from app.scene.video_export import VideoExportError, available, export_in_subprocess
     if available():

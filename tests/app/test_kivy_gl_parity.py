@@ -91,6 +91,7 @@ def soft_iou(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.minimum(a, b).sum() / np.maximum(a, b).sum())
 
 
+@pytest.mark.slow  # Kivy GL in a child process
 def test_kivy_gl_matches_pyrender_for_every_character_pose_and_view(kivy_images):
     shaded, masks, uploads = kivy_images
     cases = parity_cases()
@@ -133,6 +134,7 @@ def test_kivy_gl_matches_pyrender_for_every_character_pose_and_view(kivy_images)
                   f"shading mean max {max(r[3] for r in rows):.2f}, p99 max {max(r[4] for r in rows):.1f}")
 
 
+@pytest.mark.slow  # Kivy GL in a child process
 def test_projector_screen_setting_matches_pyrender_in_every_projector_case(kivy_images):
     """The projector screen draws with one sample per pixel (``PROJECTOR_SUPERSAMPLE``:
     the light's latency budget); its projector-view silhouettes meet the issue's bar as
@@ -154,6 +156,7 @@ def test_projector_screen_setting_matches_pyrender_in_every_projector_case(kivy_
         ref.close()
 
 
+@pytest.mark.slow  # Kivy GL in a child process
 def test_kivy_gl_silhouettes_differ_when_the_pose_differs(kivy_images):
     """The comparison can fail: the Kivy image of one pose is not the pyrender image of
     the next pose of the same character and view."""
@@ -181,6 +184,7 @@ def _screenshot(tmp_path: Path, name: str, *args: str) -> tuple[dict, np.ndarray
     return json.loads(Path(f"{png}.json").read_text()), np.asarray(Image.open(png).convert("RGB"))
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_screenshot_json_says_which_renderer_drew_the_frame(tmp_path):
     info, img = _screenshot(tmp_path, "proj", "--screen", "projector")
     assert info["renderer"] == "kivy-gl" and info["screen"] == "projector" and info["render_error"] is None
@@ -194,6 +198,7 @@ def test_screenshot_json_says_which_renderer_drew_the_frame(tmp_path):
     assert info["renderer"] == "pyrender"
 
 
+@pytest.mark.slow  # Kivy GL in a child process
 def test_kivy_gl_stage_matches_the_pyrender_stage(kivy_images):
     """``app.ui.gl.stage.kivy_gl_stage_renderer`` -- the stage behind ``(scene, t, view) ->
     RGB`` -- gives the pyrender stage's frames: the same synthetic rig (deterministic), the

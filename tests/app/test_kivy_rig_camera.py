@@ -184,6 +184,7 @@ print("RESULT " + json.dumps(out))
 """
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_the_projector_screen_runs_a_live_rig_on_the_kivy_camera_and_releases_it(tmp_path):
     pytest.importorskip("cv2")
     env = {**os.environ, "KIVY_HOME": str(tmp_path / "kivy"), "PYTHONPATH": str(REPO)}
@@ -210,6 +211,7 @@ def test_the_projector_screen_runs_a_live_rig_on_the_kivy_camera_and_releases_it
 
 @pytest.mark.parametrize("calibrated, saved, expected", [(True, None, "kivy"), (False, None, "None"),
                                                          (False, "kivy:1", "kivy:1"), (True, "0", "0")])
+@pytest.mark.slow  # Kivy in a child process
 def test_the_android_entry_point_picks_the_kivy_camera_once_calibrated(tmp_path, calibrated, saved, expected):
     """main.py on the tablet profile (numba, pyrender, OpenGL, ... blocked): the teacher's
     saved camera, else the Kivy camera when the rig is calibrated, else the synthetic rig."""
@@ -278,6 +280,7 @@ print("RESULT " + json.dumps(out))
 """
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_a_kivy_camera_that_does_not_open_is_said_once_and_the_show_goes_on(tmp_path):
     _calibrate(tmp_path)
     env = {**os.environ, "KIVY_HOME": str(tmp_path / "kivy"), "PYTHONPATH": str(REPO)}
@@ -341,6 +344,7 @@ print("RESULT " + json.dumps({"before_tick": before_tick, "after_tick": calls, "
 """
 
 
+@pytest.mark.slow  # Kivy in a child process
 def test_closing_the_kivy_camera_off_the_main_thread_stops_it_on_the_main_thread(tmp_path):
     env = {**os.environ, "KIVY_HOME": str(tmp_path / "kivy"), "PYTHONPATH": str(REPO)}
     proc = subprocess.run([sys.executable, "-c", CLOSE_SCRIPT], cwd=REPO, env=env, capture_output=True, text=True,

@@ -337,6 +337,7 @@ while True:
 """
 
 
+@pytest.mark.slow  # SIGKILLs child savers
 def test_sigkill_while_saving_narrations_never_loses_the_story(tmp_path):
     """A child stores narrations as fast as it can; it is SIGKILLed at random moments.
     After every kill the story loads and every narration it points at loads."""
@@ -518,6 +519,7 @@ rec._thread.join()
 """
 
 
+@pytest.mark.slow  # SIGKILLs a child recorder
 def test_sigkill_while_recording_loses_only_the_recording(tmp_path):
     """Killed mid-recording: the story (with its earlier narration) is intact, the
     unfinished ``.part`` file is not a WAV anyone uses, and the next start removes it."""

@@ -16,6 +16,8 @@ from app.story.storage import ProfileStore
 from app.ui.strings import tr
 from tests.app.test_ui import _drive
 
+pytestmark = pytest.mark.slow  # drives the real app in a child process
+
 
 def _wav(path, seconds: float, rate: int) -> None:
     t = np.arange(int(seconds * rate)) / rate

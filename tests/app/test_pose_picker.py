@@ -149,6 +149,7 @@ def library():
     return PoseSearch.build(MOTIONS_DIR), group_folder(MOTIONS_DIR)
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_posing_by_touch_searches_the_pose_the_figure_shows(driven, library):
     lang, r, out = driven
     f = _figure()
@@ -181,6 +182,7 @@ def test_posing_by_touch_searches_the_pose_the_figure_shows(driven, library):
     assert (out / "pose_jump.png").is_file() and (out / "groups.png").is_file()
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_groups_by_touch_are_the_library_groups_named_by_label(driven, library):
     lang, r, _ = driven
     _, grouped = library

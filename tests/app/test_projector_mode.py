@@ -9,6 +9,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.slow  # starts the app in a child process
+
 REPO = Path(__file__).resolve().parents[2]
 
 SCRIPT = r"""

@@ -46,6 +46,7 @@ def test_the_display_override_names_the_projectors_display(monkeypatch):
     assert second_display() is None  # no window (no SDL video) in this process: no second display known
 
 
+@pytest.mark.slow  # a Kivy window process
 def test_the_window_process_exits_cleanly_when_closed_while_its_stdin_watcher_reads():
     """The screen closed (CLOSED in the shared header) while the app's pipe stays open: the
     window's process stops with its stdin watcher still inside a read. A watcher blocked in
@@ -65,6 +66,7 @@ def test_the_window_process_exits_cleanly_when_closed_while_its_stdin_watcher_re
         window.close()
 
 
+@pytest.mark.slow  # a Kivy window process
 def test_the_window_process_shows_the_newest_frame_and_ends_with_the_app(tmp_path):
     shot = tmp_path / "shown.png"
     window = ProjectorWindow((0, 0, W, H), max_size=(W, H), headless=True, screenshot=shot)
@@ -97,6 +99,7 @@ def test_the_window_process_shows_the_newest_frame_and_ends_with_the_app(tmp_pat
     window.close()  # twice: harmless
 
 
+@pytest.mark.slow  # a Kivy window process
 def test_the_window_never_outlives_the_app(tmp_path):
     window = ProjectorWindow((0, 0, W, H), max_size=(W, H), headless=True)
     try:
@@ -177,6 +180,7 @@ print("RESULT " + json.dumps(out))
 """
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_the_projector_screen_opens_a_window_on_the_second_display_and_feeds_it(tmp_path):
     import json
     import os

@@ -39,6 +39,8 @@ from tests.support.tablet_profile import (  # noqa: E402
     is_third_party,
 )
 
+pytestmark = pytest.mark.slow  # the tablet profile runs the app in child interpreters
+
 REPO = Path(__file__).resolve().parents[2]
 PROFILE = REPO / "tests" / "support" / "tablet_profile.py"
 #: requirements that are not Python packages the flow imports on this desktop: the

@@ -182,6 +182,7 @@ def test_damaged_or_foreign_pin_records_say_so(tmp_path):
 
 
 # ------------------------------------------------------------------ by touch, offscreen
+@pytest.mark.slow  # starts the app in a child process
 def test_fresh_install_gate_taps_alone_cannot_claim_teacher_mode(tmp_path):
     r, out = _drive(tmp_path, "teacher_gate")
     assert r["first_mode"] == "gate" and " times " in r["first_question"]
@@ -207,6 +208,7 @@ def test_fresh_install_gate_taps_alone_cannot_claim_teacher_mode(tmp_path):
         assert store.try_recovery_code(code).ok  # the code shown is the one that works
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_forgotten_pin_reset_by_touch_keeps_the_stories(tmp_path):
     r, out = _drive(tmp_path, "teacher_recover")
     setup = json.loads((out / "setup.json").read_text())
@@ -220,6 +222,7 @@ def test_forgotten_pin_reset_by_touch_keeps_the_stories(tmp_path):
         assert r["new_code"] != setup["code"] and store.try_recovery_code(r["new_code"]).ok
 
 
+@pytest.mark.slow  # starts the app in a child process
 def test_a_pin_from_before_recovery_codes_shows_a_new_code_once_by_touch(tmp_path):
     r, _out = _drive(tmp_path, "teacher_legacy")
     assert r["legacy_mode"] == "code" and len(r["legacy_code"]) == 12 and r["after_legacy"] == "teacher"

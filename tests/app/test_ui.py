@@ -16,6 +16,8 @@ from PIL import Image
 
 from app.story.storage import ProfileStore
 
+pytestmark = pytest.mark.slow  # every test drives the real app in a child process
+
 REPO = Path(__file__).resolve().parents[2]
 DRIVER = REPO / "tests" / "support" / "ui_driver.py"
 

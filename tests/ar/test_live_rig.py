@@ -23,6 +23,8 @@ from ar.live import LiveTracker
 from ar.pose import RegionPoseEstimator
 from ar.synthetic import SessionConfig, SyntheticCamera, load_session_truth, record_rig_session
 
+pytestmark = pytest.mark.slow  # records a board session and plays it through the live rig's threads
+
 N_FRAMES = 90
 
 

@@ -32,6 +32,7 @@ def _json(path) -> dict:
     return json.loads(path.read_text())
 
 
+@pytest.mark.slow  # a whole bench run: every method on two libraries
 def test_bench_retrieval_quick_emits_the_json_keys(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("STORYBEAM_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "bench.json"
@@ -138,6 +139,7 @@ def test_bench_motion_io_tiny(tiny_library, tmp_path, capsys):
     assert "2 files" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # a bench run over the bundled library
 def test_bench_numpy_retrieval_on_the_bundled_library(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("STORYBEAM_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "numpy.json"
@@ -150,6 +152,7 @@ def test_bench_numpy_retrieval_on_the_bundled_library(tmp_path, monkeypatch, cap
     assert "speed-up" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # a bench run: profiles the search's variants (a minute of numba compiling on a fresh cache)
 def test_bench_fast_search_profile_on_the_bundled_library(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("STORYBEAM_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "profile.json"
@@ -163,6 +166,7 @@ def test_bench_fast_search_profile_on_the_bundled_library(tmp_path, monkeypatch,
     assert "stages of the default search" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # a bench run: AR frames
 def test_bench_ar_few_frames(tmp_path, capsys):
     out = tmp_path / "ar.json"
     rc = main(["bench", "ar", "--frames", "3", "--conditions", "clean,occlusion_30", "--true-calibration",
@@ -183,6 +187,7 @@ def test_bench_ar_few_frames(tmp_path, capsys):
     assert (tmp_path / "img" / "ar_occlusion_30_camera_axes.png").is_file()
 
 
+@pytest.mark.slow  # a bench run: AR frames per renderer
 def test_bench_ar_frame_timing_per_renderer(tmp_path, capsys):
     """Camera frame -> projector frame per renderer (issue 13): each renderer in its own
     process, the keys the issue names, the accuracy of the fast path, a lit projector frame."""

@@ -191,6 +191,7 @@ def _query_bvh(src_folder: Path, tmp_path: Path) -> Path:
 
 
 @pytest.mark.parametrize("where", ["bundled", "cmu"])
+@pytest.mark.slow  # the search command in child interpreters
 def test_tablet_profile_search_answers_as_the_desktop(where, tmp_path, request):
     """``storybeam search --json`` with numba and llvmlite unimportable runs the numpy path
     and returns the same clips at the same distances as the compiled path."""

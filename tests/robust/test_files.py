@@ -15,6 +15,7 @@ from ar.calibration import CameraCalibration, ProjectorCalibration
 from ar.errors import CalibrationError
 
 
+@pytest.mark.slow  # the package campaign
 def test_package_campaign_refuses_everything_hostile_and_writes_nothing(tmp_path):
     out = files.run_package_campaign(tmp_path, n_mutants=60, seed=11)
     assert out["crashes"] == 0, out["crash_examples"]
@@ -24,6 +25,7 @@ def test_package_campaign_refuses_everything_hostile_and_writes_nothing(tmp_path
     assert out["imported"] >= 1 + len(files.VALID_VARIANTS) and out["refused"] > 50
 
 
+@pytest.mark.slow  # the calibration campaign
 def test_calibration_campaign_only_raises_calibration_error(tmp_path):
     out = files.run_calibration_campaign(tmp_path, n=800, seed=5)
     assert out["crashes"] == 0, out["crash_examples"]

@@ -7,6 +7,8 @@ import pytest
 
 from lab.stress import monkey
 
+pytestmark = pytest.mark.slow  # the monkey campaign: the real app in a child process, 25 s
+
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):

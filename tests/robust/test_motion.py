@@ -47,6 +47,7 @@ def _one_joint_bvh(frames: int, frame_time: str = "0.033333", rows: int | None =
 # ----------------------------------------------------------------------------- the fuzz harness
 
 
+@pytest.mark.slow  # the fuzz campaign
 def test_short_fuzz_campaign_has_no_crash_or_hang(seeds, tmp_path):
     """2 000 mutated inputs from real seeds: every one loads or raises MotionFormatError."""
     stats = fuzz.fuzz_in_process(seeds, 2000, rng_seed=20261121, workdir=tmp_path, crash_dir=tmp_path / "crashes")
@@ -81,6 +82,7 @@ def test_loaded_motion_with_non_finite_numbers_is_a_failure():
         fuzz.check_motion(Fake())
 
 
+@pytest.mark.slow  # the fuzz campaign in a child process
 def test_worker_campaign_runs_in_a_subprocess(seeds, tmp_path):
     seen = []
     stats = fuzz.run_campaign(seeds, inputs=150, batch=50, rng_seed=3, crash_dir=tmp_path, progress=seen.append)

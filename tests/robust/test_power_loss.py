@@ -124,6 +124,7 @@ def test_recorder_refuses_a_call_it_does_not_model(tmp_path):
 
 
 @needs_strace
+@pytest.mark.slow  # the power-loss campaign (strace children)
 def test_power_loss_short_campaign_loses_nothing_and_the_control_does(tmp_path):
     out = pl.run_power_loss(tmp_path, workloads=1, steps=30, cuts=30, seed=5, control_cuts=10)
     assert out["crash_states"] == 30 * 7
@@ -137,6 +138,7 @@ def test_power_loss_short_campaign_loses_nothing_and_the_control_does(tmp_path):
 
 
 @needs_strace
+@pytest.mark.slow  # SIGKILLs child savers
 def test_a_kill_during_a_calibration_save_never_leaves_an_empty_file(tmp_path):
     """Every cut point of a recorded run of 8 calibration saves, page cache kept (a kill):
     camera.json is absent before the first save and loads afterwards. The same run with
@@ -162,6 +164,7 @@ def test_a_kill_during_a_calibration_save_never_leaves_an_empty_file(tmp_path):
 
 
 @needs_strace
+@pytest.mark.slow  # the power-loss campaign (strace children)
 def test_stress_power_loss_command_writes_the_json(tmp_path, capsys):
     from app.cli import main  # deferred: the command line only for this test
 

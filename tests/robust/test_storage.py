@@ -12,6 +12,7 @@ from app.story.model import Story
 from lab.stress import files, kill
 
 
+@pytest.mark.slow  # the kill campaign: 30 SIGKILLed child savers
 def test_sigkill_during_saves_loses_no_story(tmp_path):
     """30 kills at random moments: every story equals its acknowledged (or in-flight) state."""
     report = kill.run_kill_campaign(tmp_path, kills=30, seed=7, max_delay_s=0.1, progress=False)
@@ -95,6 +96,7 @@ def test_undecodable_schema_raises_storage_error_on_open(tmp_path):
             store.list_stories()
 
 
+@pytest.mark.slow  # the full-disk campaign in a forked child
 def test_full_disk_rlimit_keeps_saved_stories(tmp_path):
     """Quota-like full disk (RLIMIT_FSIZE in a forked child): a clear StorageError, no loss."""
     out = files.full_disk_rlimit(tmp_path, seed=1)

@@ -10,6 +10,8 @@ from lab.stress import tracking as stress
 from ar.filtering import PoseTracker
 from ar.pose import RegionPoseEstimator
 
+pytestmark = pytest.mark.slow  # the tracking campaign: 300-frame sequences through the tracker
+
 
 @pytest.fixture(scope="module")
 def result():
