@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from retrieval.codes import DiffTable
+from retrieval.codes import DiffTable, full_table
 from retrieval.dtw import band_limits, dtw_cost_numpy, dtw_rows_numpy, library_bounds
 from retrieval.search import PackedCodes
 
@@ -97,3 +97,41 @@ def test_compiled_bounds_equal_library_bounds():
                           table.F, table.absdiff, shift, mask, colmin, RT, row_out)
             assert got == pytest.approx(want[c], rel=1e-12, abs=0)
             assert np.array_equal(row_out.astype(np.float64), rowmin[:, c])
+
+
+@pytest.mark.parametrize("k", [1, 4])
+def test_candidate_loop_and_its_numpy_twin_answer_alike(k):
+    """The compiled candidate loop (:mod:`retrieval.search.cascade`, every stage in one
+    call) and its numpy twin (:class:`retrieval.search.numpy_path.NumpySearch`) over the
+    same packed queries: the same clips and distances as the brute force, and the same
+    bookkeeping in :class:`retrieval.search.results.SearchStats` (each candidate pruned,
+    abandoned or completed exactly once)."""
+    from retrieval.search import FastSearcher, brute_force
+    from retrieval.search.cascade import search_serial
+    from retrieval.search.numpy_path import NumpySearch
+    from retrieval.search.results import SearchResult, SearchStats
+
+    table = DiffTable.from_ratios(RATIOS)
+    rng = np.random.default_rng(32 + k)
+    lib = [_codes(rng, int(rng.integers(2, 30))) for _ in range(50)]
+    lib[7] = lib[3].copy()  # a tie the order must break alike
+    queries = [_codes(rng, int(rng.integers(2, 30))) for _ in range(6)] + [lib[3]]
+    want_idx, want_dist = brute_force(queries, lib, full_table(RATIOS), k=k)
+    searcher = FastSearcher(lib, table, backend="numba")
+    packed = PackedCodes.from_sequences(queries, table.size)
+
+    twin = NumpySearch(searcher).search(packed, k)
+    assert isinstance(twin, SearchResult) and isinstance(twin.stats, SearchStats)
+    assert np.array_equal(twin.indices, want_idx) and np.array_equal(twin.distances, want_dist)
+
+    out_idx, out_dist = np.full((len(packed), k), -1, np.int64), np.full((len(packed), k), np.inf)
+    stats = np.zeros((len(packed), 5), np.int64)
+    use_rle, band = searcher._plan(packed)
+    search_serial(packed.arrays(), searcher._L, searcher._LV, searcher.vocab, table.F, table.absdiff,
+                  searcher._shift, searcher._mask, k, use_rle, band, out_idx, out_dist, stats, searcher.range_bound)
+    assert np.array_equal(out_idx, want_idx) and np.array_equal(out_dist, want_dist)
+    compiled = SearchStats()
+    for row in stats:
+        compiled.add(row)
+    for s in (compiled, twin.stats):
+        assert s.pruned + s.abandoned + s.completed == s.candidates
