@@ -1,7 +1,7 @@
 """StoryBeam's application: everything a child, a teacher or a developer touches.
 
 Layers, each importing only those listed before it (``tests/test_layering.py`` enforces
-it; ``docs/architecture.md`` draws it):
+it; ``docs/design/architecture.md`` draws it):
 
 * :mod:`app.story` -- the story model, editing with undo, gestures, crash-safe storage
   and packages (no Kivy, no GL);

@@ -1,4 +1,4 @@
-"""Print Markdown tables from `storybeam eval --json` files (used for docs/results.md).
+"""Print Markdown tables from `storybeam eval --json` files (used for docs/notebook/results.md).
 
 Usage: .venv/bin/python scripts/results_tables.py out/final/eval120.json [more.json ...]
 """

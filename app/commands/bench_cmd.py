@@ -202,7 +202,7 @@ def _run_ar(args: argparse.Namespace) -> int:
 
 
 # ------------------------------------------------------------------------ animation
-ANIMATION_DOC = """The animation numbers quoted in docs/animation.md (lab/bench/animation.py): path
+ANIMATION_DOC = """The animation numbers quoted in docs/design/animation.md (lab/bench/animation.py): path
 following and foot skate of every bundled walk and run per character (and at human
 scale), code-table transitions against random ones, retargeting of one clip per shared
 skeleton (when the shared CMU data is present), and the character render at 640x480."""
@@ -373,7 +373,7 @@ def _run_storybeam_scale(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------- act-it-out
-ACT_IT_OUT_DOC = """"Act it out" end to end (lab/bench/act_it_out.py, docs/act-it-out.md): synthetic
+ACT_IT_OUT_DOC = """"Act it out" end to end (lab/bench/act_it_out.py, docs/notebook/act-it-out.md): synthetic
 performances of --limit trials (a human-proportioned figure and the kid character, 5
 classes, in place, facing the camera; the person also turned 30 degrees and before a
 cluttered background), rendered at 640x480 and 30 fps, tracked by ar.body on one core,

@@ -16,7 +16,7 @@ instead which clips pass closest through a short query, and at which frames.
 quantiser); ``search_ms`` the time from the query's codes to the answer (the index
 search alone), both by :func:`time.perf_counter`. Before them one search for an indexed
 clip loads the compiled kernels (from numba's cache; compiling them if the cache is
-empty, see docs/retrieval-speed.md): ``kernels_ms``.
+empty, see docs/notebook/retrieval-speed.md): ``kernels_ms``.
 
 ``--pose FILE:FRAME`` searches by pose instead (:class:`retrieval.library.PoseSearch`):
 the posture at frame FRAME of the motion file (counted in the file's own frame rate, from

@@ -9,7 +9,7 @@ strace) and writes its own JSON (``crash_states``, ``acked_lost``, ``corrupt_acc
 The short versions of the same harnesses run in CI (tests/robust/test_*.py); this command
 runs them for as long as asked and writes one JSON summary with the headline figures
 (``inputs``, ``crashes``, ``hangs``, ``kills``, ``stories_lost``,
-``recovery_frames_max``) plus each harness's detail. See docs/reliability.md.
+``recovery_frames_max``) plus each harness's detail. See docs/notebook/reliability.md.
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("campaign", nargs="?", choices=("power-loss",), default=None,
                    help="run one campaign alone and write its own JSON: power-loss (the product's recorded "
-                        "file-system calls replayed onto simulated post-crash disks; docs/reliability.md)")
+                        "file-system calls replayed onto simulated post-crash disks; docs/notebook/reliability.md)")
     p.add_argument("--cuts", type=int, default=150,
                    help="power-loss: cut points per recorded workload, 7 crash states each (default 150)")
     p.add_argument("--workloads", type=int, default=2, help="power-loss: recorded workloads (default 2)")

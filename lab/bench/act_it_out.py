@@ -31,7 +31,7 @@ What it does, per *variant* (a figure and a way of filming it):
    forward kinematics, same frames) as the query (:meth:`ActSearch.search_positions`):
    what the features allow when the pose estimator is perfect.
 
-Tuning used seed 1; the reported numbers (docs/act-it-out.md) come from seed 2.
+Tuning used seed 1; the reported numbers (docs/notebook/act-it-out.md) come from seed 2.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Measure the animation numbers quoted in docs/animation.md (``storybeam bench animation``).
+"""Measure the animation numbers quoted in docs/design/animation.md (``storybeam bench animation``).
 
     storybeam bench animation [--json out/animation_bench.json] [--shared ../shared/data/cmu]
                               [--characters robot,cat,kid]

@@ -48,7 +48,7 @@ from retrieval.search import warm_up as warm_up_fast
 
 #: "quantized" is the research's method as it describes it (full 4ⁿ×4ⁿ table, DTW against
 #: every reference); "quantized-fast" gives bit-identical distances from a 20 KiB table with
-#: lower bounds, early abandoning and run-length DTW (docs/retrieval-speed.md).
+#: lower bounds, early abandoning and run-length DTW (docs/notebook/retrieval-speed.md).
 METHODS = ("storybeam", "dtw-storybeam", "quantized-fast", "quantized", "dtw", "forbes")
 
 #: The methods that run on the seed's 17 MR17 columns only.

@@ -7,7 +7,7 @@ recurrence (each cell's Euclidean cost summed dimension by dimension), with earl
 abandoning. (A matrix-product form of the cost matrix, ``‖x‖² + ‖y‖² − 2 x·yᵀ``, was
 measured and dropped: with one BLAS thread it was no faster on these clips, 0.132 against
 0.124 s for 1 230 CMU pairs, and with OpenBLAS's default threads far slower on a busy
-machine; docs/results.md.)
+machine; docs/notebook/results.md.)
 
 Without a band the compiled path computes each row's costs first, with the frame
 index innermost (the loop runs on vectors, three dimensions per pass; each cell still
@@ -17,7 +17,7 @@ the same), then the recurrence with the boundary cells peeled off (no branches o
 comparisons), two rows at a time, staggered, so that two independent chains of
 additions overlap in the CPU: bit for bit the per-cell kernel's distance and the same
 abandoning decisions (every row's minimum is still checked), about 4× fewer seconds than
-the per-cell kernel on CMU clips (tests compare them; docs/results.md measures the
+the per-cell kernel on CMU clips (tests compare them; docs/notebook/results.md measures the
 search).
 
 :func:`dtw_features_abandon` returns exactly :func:`retrieval.dtw.dtw_features` (the same

@@ -45,7 +45,7 @@ So depth is dropped, for the library and the query alike:
    values as the window made relative on its own. Measured on seed 1 (60 takes per
    figure, ``ar.body``, with :func:`~retrieval.motion.landmarks.consistent_sides`):
    kid 0.633 → 0.733, person 0.933 → 0.933, true-joint ceiling 0.933 → 0.933
-   (docs/act-it-out.md).
+   (docs/notebook/act-it-out.md).
 
 No turning rate: with depth dropped, a turn is not observable from the frontal
 coordinates, and the performer faces the tablet anyway. A body that turns inside the
@@ -181,7 +181,7 @@ def measured_rest(pos: np.ndarray, joint_map: dict[str, int]) -> np.ndarray:
     return rest
 
 
-for _norm in ("legs", "chain"):  # the normalisations it was compared with (docs/act-it-out.md)
+for _norm in ("legs", "chain"):  # the normalisations it was compared with (docs/notebook/act-it-out.md)
     register_feature_set(FrontalFeatureSet(name=f"frontal_{_norm}", specs=MR17.specs, normalise=_norm))
 
 __all__ = ["ACROSS_PAIRS", "FRONTAL", "FrontalFeatureSet", "face_camera", "mean_heading", "measured_rest"]

@@ -10,7 +10,7 @@ The turning rate (:func:`~retrieval.features.relational.heading_rate`, radians p
 second, signed: left turns positive) is also invariant to position, heading, bone
 lengths, units and frame rate, and it separates exactly those classes. Its weight
 (:data:`HEADING_WEIGHT`, 0.5) puts a brisk turn (about 1 rad/s) at half a leg length,
-on the scale of the distances; docs/results.md has the ablation that chose it.
+on the scale of the distances; docs/notebook/results.md has the ablation that chose it.
 
 The first 17 columns are exactly MR17's, so a clip loaded with this set carries the
 seed's features too (:func:`mr17_columns`).
@@ -22,14 +22,14 @@ import numpy as np
 from retrieval.features.relational import MR17, FeatureSet, FeatureSpec, register_feature_set
 
 #: Multiplier of the turning rate (rad/s) beside distances in leg lengths (ablation in
-#: docs/results.md).
+#: docs/notebook/results.md).
 HEADING_WEIGHT = 0.5
 
 #: How lengths are normalised ("legs" as MR17; "arms" and "chain" were tried for
-#: identity, see docs/results.md).
+#: identity, see docs/notebook/results.md).
 NORMALISE = "legs"
 
-#: Whether each feature's mean over the clip is subtracted (ablation in docs/results.md).
+#: Whether each feature's mean over the clip is subtracted (ablation in docs/notebook/results.md).
 CENTRE = False
 
 _TURN_JOINTS = ("left_hip", "right_hip", "left_shoulder", "right_shoulder")

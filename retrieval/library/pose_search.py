@@ -19,7 +19,7 @@ same feature set as the index) and searched in two stages:
 The answer is therefore exact for the refined distance *within the shortlist*; a clip
 outside it is missed when its code distance is above the shortlist's last while its
 feature distance is below. The shortlist is a speed/recall trade: on CMU
-(``storybeam bench pose-search``, docs/results.md) a shortlist of 32 gives the same top
+(``storybeam bench pose-search``, docs/notebook/results.md) a shortlist of 32 gives the same top
 clip as refining every clip for most queries, not all, at the same or better class
 accuracy.
 """

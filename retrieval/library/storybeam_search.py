@@ -19,12 +19,12 @@ turning rate, :mod:`retrieval.features.storybeam_set`):
    (:func:`~retrieval.dtw.rerank.dtw_features_abandon`: bit for bit the
    baseline's kernel otherwise). A matrix-product form of the cost matrix was measured
    and dropped (no faster with one BLAS thread; far slower with OpenBLAS's default
-   threads on a busy machine; docs/results.md).
+   threads on a busy machine; docs/notebook/results.md).
 
 What it guarantees: the answer is exact with respect to what is ranked — the ``k``
 returned clips are the ``k`` nearest *by exact float DTW among the shortlist*, and their
 distances are exact. It equals exact DTW over the whole library whenever the true
-nearest clip is in the code shortlist; docs/results.md measures how often that holds
+nearest clip is in the code shortlist; docs/notebook/results.md measures how often that holds
 (the accuracy within 1 point of exact DTW) and what the shortlist size trades between
 accuracy and speed. Saturation: quantised distances are coarse (several clips at 0.0
 for a near-duplicate), and the float re-ranking breaks exactly those ties — "find this
@@ -44,7 +44,7 @@ what it ranks, and :meth:`search` (class retrieval, the evaluation's accuracy) i
 untouched. Centred features are worse for class (they drop posture levels that tell a
 jump from a walk: 91.7 % on CMU against 99.0 % raw, exact DTW) and better for identity
 (205 / 205 CMU clips found first after a round trip onto another skeleton, against
-164 / 205 by :meth:`search`; docs/results.md), hence two rankings.
+164 / 205 by :meth:`search`; docs/notebook/results.md), hence two rankings.
 
 Cost: one fast code search plus at most ``shortlist`` float DTWs (fewer cells when
 abandoned), against one float DTW per library clip for exact DTW; memory: the codes
@@ -70,7 +70,7 @@ from retrieval.dtw import (
 from retrieval.search import FastSearcher, Hit
 
 #: Default number of code-nearest clips re-ranked by exact float DTW (the ablation in
-#: docs/results.md: accuracy against speed).
+#: docs/notebook/results.md: accuracy against speed).
 SHORTLIST = 4
 
 #: Default kept PCA components of the shortlist's codes (the seed's n).
@@ -79,7 +79,7 @@ DIMS = 6
 #: How the shortlist's code distances are computed (:class:`~retrieval.search.FastSearcher`
 #: ``mode``): "runs", the run-length form of the code DTW, ranks the shortlist at about a
 #: third of the exact code search's cost and, measured on both shared data sets, picks
-#: shortlists that give the same 1-NN accuracy after re-ranking (docs/results.md); the
+#: shortlists that give the same 1-NN accuracy after re-ranking (docs/notebook/results.md); the
 #: re-ranking, and so every returned distance, stays exact float DTW either way.
 SHORTLIST_MODE = "runs"
 

@@ -36,7 +36,7 @@ joint 0.04–0.10 L below the shoulder midpoint. Measured against BlazePose (the
 over 30 tuning renders of the human-proportioned figure of CMU joint − landmark joint,
 relative to the hip midpoint, in leg lengths): BlazePose's hips sit 0.08 L above the hip
 joints, its shoulders 0.06 L above CMU's, its foot index 0.14 L below CMU's toe joint
-(the ball of the foot); the table of :data:`UP_OFFSETS` is the result (docs/act-it-out.md).
+(the ball of the foot); the table of :data:`UP_OFFSETS` is the result (docs/notebook/act-it-out.md).
 
 **The head from the trunk, not the ears.** Acclaim's head joint is the top of the neck,
 which moves with the shoulders; where the *ears* sit above it depends on the size of the
@@ -54,7 +54,7 @@ pulls it down. Over 93 takes per figure
 (against the take's true joints, in library standard deviations): the kid's mean
 |error| of the hand–head distances 0.95 → 0.69 and of hand-above-head 0.56 → 0.34, the
 person's 0.41 → 0.40 and 0.20 → 0.18; class accuracy (1-NN, trial left out) person
-0.871 → 0.892 against a ceiling of 0.903, kid 0.710 → 0.710 (docs/act-it-out.md).
+0.871 → 0.892 against a ceiling of 0.903, kid 0.710 → 0.710 (docs/notebook/act-it-out.md).
 
 **Sides kept consistent.** On a body it reads badly (StoryBeam's cartoon kid: a quarter
 of the frames of the tuning takes) BlazePose swaps the whole body's left and right from

@@ -17,11 +17,11 @@ from retrieval.dtw.jit import HAVE_NUMBA, numba
 
 #: query segments of the segment-cover filter (:mod:`retrieval.search.segment_bound`); 0: off.
 #: Tried 3, 6, 8, 12, 16, each side by side with the search without the filter on the derived
-#: library: 6-12 gained most, 3 and 16 less (docs/retrieval-speed.md)
+#: library: 6-12 gained most, 3 and 16 less (docs/notebook/retrieval-speed.md)
 SEGMENTS = 8
 #: a second, finer level of the segment-cover filter for long queries: query runs per
 #: segment (0: off), used when it gives at least twice SEGMENTS segments. Measured on the
-#: derived libraries, 69 queries, one core, same answers (docs/retrieval-speed.md):
+#: derived libraries, 69 queries, one core, same answers (docs/notebook/retrieval-speed.md):
 #: 33 204 clips p95 214.8 -> 172.7 ms, total 4 980 -> 4 595 ms; 3 382 clips total 654 ->
 #: 593 ms (3 runs per segment about the same, 4 and 6 less, 1 the same as 2). Its segments
 #: are cut where the query's codes change most (``segment_split_adaptive``): 33 204 clips

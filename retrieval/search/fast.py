@@ -51,7 +51,7 @@ slowest query of 69 over 33 204 derived clips, the nearest clip is 546th by its 
 bound and 5th by the finer segment bound). The k-th best distance then falls to its final
 value after a few exact DPs, and every later range-cover bound and DP runs under it: on
 that query the DPs went from 314 to 105 (the number whose range-cover bound is within the
-final distance; docs/retrieval-speed.md).
+final distance; docs/notebook/retrieval-speed.md).
 
 ``backend="numpy"`` (Android: no numba) runs the same bounds and pruning with the
 vectorised anti-diagonal DP of :mod:`retrieval.dtw.kernels`: same neighbours and distances,

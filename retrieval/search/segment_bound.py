@@ -43,7 +43,7 @@ the two neighbouring segments whose union has the smallest *height × diameter* 
 frames times the largest ``D`` between two of its codes), until ``n_segments`` remain.
 On the six slowest of 69 queries over 33 204 derived clips it left 1.1–2.6× fewer
 candidates to the full range-cover bound than an even split with as many segments
-(docs/retrieval-speed.md).
+(docs/notebook/retrieval-speed.md).
 
 :func:`segment_cover_numpy` is the reference; :func:`segment_rows` builds ``Rs`` and ``H``.
 """

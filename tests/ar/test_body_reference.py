@@ -1,14 +1,14 @@
 """ar.body against MediaPipe's own pipeline (issue 18): the stored reference in
 tests/ar/data/blazepose/ was made once with mediapipe 0.10.21's legacy
 ``mp.solutions.pose.Pose(model_complexity=1)`` in a separate environment
-(scripts/make_pose_reference.py, docs/pose.md) on synthetic renders: a human-proportioned
+(scripts/make_pose_reference.py, docs/notebook/pose.md) on synthetic renders: a human-proportioned
 figure ("person": a walk and a jump) and StoryBeam's kid character (a walk, and a
 pirouette in which both pipelines lose and find it again), 640x480, consecutive frames
 at 30 fps.
 
 Three modes, compared per landmark on the frames where both report a pose: ``static``
 (detector on every frame), ``track`` (tracking, no smoothing), ``smooth`` (video mode).
-The issue asks for 1 cm (world) and 2 px (image); measured on this desktop (docs/pose.md)
+The issue asks for 1 cm (world) and 2 px (image); measured on this desktop (docs/notebook/pose.md)
 the two agree to float rounding (under 1e-4 px and 1e-4 cm) in every mode, since ar.body
 replays MediaPipe's float32 arithmetic and OpenCV 4's crop to the bit. Asserted: the
 issue's bounds everywhere, 0.05 px / 0.05 cm on the person, the same frames with a pose,

@@ -15,7 +15,7 @@ from retrieval.errors import MotionFormatError
 #: Files larger than this are refused before reading. The biggest real mocap take is a
 #: few MB (CMU's largest AMC: 3.7 MB); parsing costs about 13x the file size in peak
 #: memory (measured: a 60 MB BVH peaks at 770 MB RSS), so 64 MB keeps a worst case
-#: under 1 GB on a phone (docs/reliability.md).
+#: under 1 GB on a phone (docs/notebook/reliability.md).
 MAX_FILE_BYTES = 64 * 1024 * 1024
 #: More frames than this (about 46 hours at 60 fps) can only be a corrupt header.
 MAX_FRAMES = 10_000_000
