@@ -72,9 +72,9 @@ LIT_RADIUS_SQUARES = 0.5
 @dataclass
 class ProjectedLight:
     """What the rig's projector showed: ``image`` (RGB or grey, any size), drawn through
-    ``model`` (the light's intrinsics at the size it was drawn, scaled here when the image
-    came back at another size) from ``T_proj_from_board`` (``None``: drawn from no pose,
-    nothing to leave out)."""
+    ``model``'s pinhole ``K`` (the light's intrinsics at the size it was drawn, scaled here
+    when the image came back at another size; the renderers draw without lens distortion)
+    from ``T_proj_from_board`` (``None``: drawn from no pose, nothing to leave out)."""
 
     image: np.ndarray
     model: PinholeModel
@@ -95,7 +95,7 @@ class ProjectedLight:
         offsets = radius_m * np.array([[0, 0, 0], [-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float64)
         around = (points[:, None, :] + offsets[None]).reshape(-1, 3)
         in_front = (around @ self.T_proj_from_board[:3, :3].T + self.T_proj_from_board[:3, 3])[:, 2] > 0
-        px = project_points(around, self.T_proj_from_board, K, self.model.dist).reshape(len(points), -1, 2)
+        px = project_points(around, self.T_proj_from_board, K).reshape(len(points), -1, 2)
         ok = in_front.reshape(len(points), -1).all(1) & np.isfinite(px).all((1, 2))
         for k in np.flatnonzero(ok):
             x0, y0 = np.maximum(np.floor(px[k].min(0)).astype(int), 0)

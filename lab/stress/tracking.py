@@ -141,7 +141,7 @@ def run_scenario(n_frames: int, seed: int = 0, camera: PinholeModel | None = Non
     cfg = TrajectoryConfig(seed=seed)
     poses = handheld_trajectory(board, n_frames, cfg)
     schedule = make_schedule(n_frames, rng)
-    rig = RigTracker(board, K, dist, tracker=tracker or PoseTracker())
+    rig = RigTracker(board, K, dist, tracker=tracker)
     res = ScenarioResult()
     prev_out: np.ndarray | None = None
     prev_true: np.ndarray | None = None
