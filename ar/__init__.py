@@ -3,7 +3,7 @@
 Modules (each imports the others of this package directly; other packages import the
 names below from ``ar``):
 
-* :mod:`ar.errors` -- ``BoardSpecError``, ``CalibrationError`` (file-and-line messages);
+* :mod:`ar.errors` -- ``BoardSpecError``, ``CalibrationError`` (file-and-line messages), ``RigError``;
 * :mod:`ar.geometry` -- 4x4 rigid transforms, projection, rays onto the table plane;
 * :mod:`ar.boards` -- board spec strings, detection, printing (the *board frame*);
 * :mod:`ar.pose` -- board pose from one camera frame (IPPE + refinement);
@@ -12,7 +12,10 @@ names below from ``ar``):
 * :mod:`ar.synthetic` -- an exact synthetic camera and projector with known truth, and
   recorded hand-held rig sessions (blur, noise, exposure, a hand) with their true poses;
 * :mod:`ar.camera_sources` -- camera frames from a device, a video file, a folder of images;
-* :mod:`ar.live` -- tracking on its own threads (newest frame wins, dropped frames counted).
+* :mod:`ar.live` -- tracking on its own threads (newest frame wins, dropped frames counted);
+* :mod:`ar.rig` -- the rig's one frame loop (``RigTracker.step``: region detection, pose,
+  filter, projector pose -> ``RigState``) and the rigs that feed it: ``SyntheticRig``
+  (no rig attached) and ``LiveRig`` (a camera and calibration files), ``open_rig``.
 
 Needs OpenCV and numpy only. Rendering (pyrender, trimesh, OpenGL) lives in the
 subpackage :mod:`ar.render`, which is *not* imported here, so ``import ar`` works where
@@ -56,7 +59,7 @@ from ar.camera_sources import (
     VideoFileSource,
     open_camera_source,
 )
-from ar.errors import BoardSpecError, CalibrationError
+from ar.errors import BoardSpecError, CalibrationError, RigError
 from ar.filtering import (
     HOLDING,
     LOST,
@@ -80,7 +83,7 @@ from ar.geometry import (
     rotation_angle_deg,
     to_rvec_tvec,
 )
-from ar.live import LiveResult, LiveStats, LiveTracker
+from ar.live import LiveStats, LiveTracker
 from ar.pose import (
     PoseEstimate,
     RegionPoseEstimator,
@@ -90,6 +93,7 @@ from ar.pose import (
     pose_covariance,
     solve_board_pose,
 )
+from ar.rig import RIG_SIZE, LiveRig, ProjectedLight, RigState, RigTracker, SyntheticRig, open_rig
 from ar.synthetic import (
     Degradation,
     PinholeModel,
@@ -110,7 +114,7 @@ from ar.synthetic import (
 
 __all__ = [
     # errors
-    "BoardSpecError", "CalibrationError",
+    "BoardSpecError", "CalibrationError", "RigError",
     # geometry
     "make_transform", "from_rvec_tvec", "to_rvec_tvec", "invert", "rotation_angle_deg", "pose_error", "look_at",
     "project_points", "pixels_to_plane", "rays_to_plane",
@@ -121,7 +125,9 @@ __all__ = [
     "RegionPoseEstimator",
     # camera sources and live tracking
     "CameraSourceError", "CameraFrame", "CameraSource", "OpenCVDeviceSource", "VideoFileSource", "ImageFolderSource",
-    "FrameListSource", "open_camera_source", "LiveResult", "LiveStats", "LiveTracker",
+    "FrameListSource", "open_camera_source", "LiveStats", "LiveTracker",
+    # the rig's frame loop and the rigs
+    "RIG_SIZE", "ProjectedLight", "RigState", "RigTracker", "SyntheticRig", "LiveRig", "open_rig",
     # filtering
     "TRACKING", "HOLDING", "LOST", "OneEuroParams", "PoseOneEuroFilter", "KalmanParams", "PoseKalmanFilter",
     "TrackerOutput", "PoseTracker",

@@ -25,3 +25,7 @@ class CalibrationError(StoryBeamError):
         self.path = str(path) if path is not None else None
         self.problem = problem
         super().__init__(f"{self.path}: {problem}" if self.path else problem)
+
+
+class RigError(StoryBeamError):
+    """The rig cannot deliver frames: its camera stopped or never sent one (the message names the source)."""

@@ -1,4 +1,4 @@
-"""Tracking off the UI thread: camera frames in, the newest filtered board pose out.
+"""Tracking off the UI thread: camera frames in, the newest tracked rig state out.
 
 :class:`LiveTracker` runs two daemon threads over a :class:`ar.camera_sources.CameraSource`:
 
@@ -7,10 +7,10 @@
   mailbox still holds a frame the tracker has not taken, that older frame is replaced
   and counted as **dropped**: the newest frame always wins, so the pose never lags
   behind a queue of stale frames;
-* the *tracker* takes the newest frame, finds the board
-  (:class:`ar.pose.RegionPoseEstimator`: the region the last pose predicts, the whole
-  frame when lost), filters the pose (:class:`ar.filtering.PoseTracker`: tracking /
-  holding / lost) and publishes a :class:`LiveResult`.
+* the *tracker* takes the newest frame and steps the rig's frame loop on it
+  (:meth:`ar.rig.RigTracker.step`: region detection, pose, filter -- tracking / holding /
+  lost on the frame's own timestamp -- and the projector pose) and publishes the
+  :class:`ar.rig.RigState`, with the latency from the frame's arrival.
 
 The UI thread only calls :meth:`LiveTracker.latest` (a lock-protected read, never
 blocks on OpenCV) or receives ``on_result`` calls from the tracker thread. Bookkeeping:
@@ -22,28 +22,14 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import cv2
-import numpy as np
 
-from ar.boards import Board
 from ar.camera_sources import CameraFrame, CameraSource, CameraSourceError
-from ar.filtering import PoseTracker, TrackerOutput
-from ar.pose import PoseEstimate, RegionPoseEstimator
 
-
-@dataclass
-class LiveResult:
-    """One processed frame: which one, what the tracker said, and how long it took."""
-
-    frame_index: int
-    timestamp_s: float
-    output: TrackerOutput
-    estimate: PoseEstimate | None
-    detect_pose_ms: float  # board detection and pose on this frame
-    latency_ms: float  # from the frame's arrival in the mailbox to the published result
-    image: np.ndarray | None = None  # the frame itself, when ``keep_images``
+if TYPE_CHECKING:  # ar.rig imports this module (its live rig runs on these threads)
+    from ar.rig import ProjectedLight, RigState, RigTracker
 
 
 @dataclass
@@ -59,25 +45,25 @@ class LiveStats:
 
 
 class LiveTracker:
-    """Camera source -> board pose -> filter on worker threads; newest frame wins."""
+    """Camera source -> the rig's frame loop on worker threads; newest frame wins."""
 
-    def __init__(self, source: CameraSource, board: Board, K: np.ndarray, dist: np.ndarray,
-                 tracker: PoseTracker | None = None, estimator: RegionPoseEstimator | None = None,
-                 on_result: Callable[[LiveResult], None] | None = None, keep_images: bool = False,
+    def __init__(self, source: CameraSource, rig: RigTracker,
+                 on_result: Callable[[RigState], None] | None = None, keep_images: bool = False,
                  opencv_threads: int | None = 1):
-        """``opencv_threads``: OpenCV's thread count, set when tracking starts (process-wide in
-        OpenCV; 1 keeps the other core for the UI and the renderer; ``None`` leaves it as it is)."""
+        """``rig``: the frame loop to step (:class:`ar.rig.RigTracker`); ``opencv_threads``:
+        OpenCV's thread count, set when tracking starts (process-wide in OpenCV; 1 keeps the
+        other core for the UI and the renderer; ``None`` leaves it as it is)."""
         self.source = source
-        self.board = board
-        self.estimator = estimator or RegionPoseEstimator(board, K, dist)
-        self.tracker = tracker or PoseTracker()
+        self.rig = rig
+        #: what the projector shows now (:class:`ar.rig.ProjectedLight`), set by the UI side
+        self.light: ProjectedLight | None = None
         self.on_result = on_result
         self.keep_images = keep_images
         self.opencv_threads = opencv_threads
         self._lock = threading.Lock()
         self._new_frame = threading.Condition(self._lock)
         self._mailbox: tuple[CameraFrame, float] | None = None
-        self._latest: LiveResult | None = None
+        self._latest: RigState | None = None
         self._captured = self._processed = self._dropped = self._detected = 0
         self._source_done = False
         self._stop = threading.Event()
@@ -118,7 +104,7 @@ class LiveTracker:
         self.stop()
 
     # ------------------------------------------------------------------ reading
-    def latest(self) -> LiveResult | None:
+    def latest(self) -> RigState | None:
         """The newest published result (``None`` before the first); never blocks on tracking."""
         with self._lock:
             return self._latest
@@ -168,13 +154,11 @@ class LiveTracker:
             if self.on_result is not None:
                 self.on_result(result)
 
-    def _process(self, frame: CameraFrame, arrived: float) -> LiveResult:
-        t0 = time.perf_counter()
-        estimate = self.estimator.estimate(frame.image)
-        t1 = time.perf_counter()
-        output = self.tracker.update(estimate, frame.timestamp_s)
-        return LiveResult(frame.index, frame.timestamp_s, output, estimate, (t1 - t0) * 1000,
-                          (time.perf_counter() - arrived) * 1000, frame.image if self.keep_images else None)
+    def _process(self, frame: CameraFrame, arrived: float) -> RigState:
+        state = self.rig.step(frame.image, frame.timestamp_s, frame.index, self.light)
+        state.latency_ms = (time.perf_counter() - arrived) * 1000
+        state.image = frame.image if self.keep_images else None
+        return state
 
 
-__all__ = ["LiveResult", "LiveStats", "LiveTracker"]
+__all__ = ["LiveStats", "LiveTracker"]

@@ -10,6 +10,7 @@ polishes it on all points.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import cv2
 import numpy as np
@@ -122,7 +123,7 @@ class RegionPoseEstimator:
     result can only differ from :func:`estimate_board_pose` when the board is found in
     the region: the same detector, then on a crop. ``counts`` records which path each
     frame took (``region``, ``full``, ``fallback`` = region missed then full frame,
-    ``lost``).
+    ``lost``), ``last_path`` the latest frame's.
     """
 
     def __init__(self, board: Board, K: np.ndarray, dist: np.ndarray, margin_px: float = 24.0,
@@ -138,6 +139,7 @@ class RegionPoseEstimator:
         w, h = board.pattern_size_m
         self._quad = np.array([[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0]], np.float64)
         self.counts = {"region": 0, "full": 0, "fallback": 0, "lost": 0}
+        self.last_path = "full"
         self.reset()
 
     def reset(self) -> None:
@@ -168,25 +170,30 @@ class RegionPoseEstimator:
                 scale += 1
         return box, scale
 
-    def estimate(self, image: np.ndarray) -> PoseEstimate | None:
-        """This frame's pose (``None`` when the board is not found anywhere)."""
+    def estimate(self, image: np.ndarray,
+                 select: Callable[[BoardDetection], BoardDetection] | None = None) -> PoseEstimate | None:
+        """This frame's pose (``None`` when the board is not found anywhere).
+
+        ``select``: applied to each detection before its pose is solved (the rig leaves out
+        the corners its own projector lit, :class:`ar.rig.ProjectedLight`); None keeps all."""
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         h, w = gray.shape[:2]
         plan = self.predicted_region((w, h))
         estimate = None
         if plan is not None:
             box, scale = plan
-            detection = self.board.detect(gray, box, scale)
-            estimate = solve_board_pose(detection, self.K, self.dist) if detection is not None else None
+            estimate = self._solve(self.board.detect(gray, box, scale), select)
             path = "region" if estimate is not None else "fallback"
         else:
             path = "full"
         if estimate is None:
-            estimate = estimate_board_pose(gray, self.board, self.K, self.dist)
+            estimate = self._solve(self.board.detect(gray), select)
         if estimate is None:
             self.counts["lost"] += 1
+            self.last_path = "lost"
             self._gap += 1
             return None
+        self.last_path = path
         self.counts[path] += 1
         px = cv2.projectPoints(self._quad.reshape(-1, 1, 3), cv2.Rodrigues(estimate.T_cam_from_board[:3, :3])[0],
                                estimate.T_cam_from_board[:3, 3], self.K, self.dist)[0].reshape(-1, 2)
@@ -198,6 +205,12 @@ class RegionPoseEstimator:
         self._last_px = px
         self._gap = 0
         return estimate
+
+    def _solve(self, detection: BoardDetection | None,
+               select: Callable[[BoardDetection], BoardDetection] | None) -> PoseEstimate | None:
+        if detection is None:
+            return None
+        return solve_board_pose(select(detection) if select is not None else detection, self.K, self.dist)
 
 
 def draw_pose(image: np.ndarray, estimate: PoseEstimate | None, K: np.ndarray, dist: np.ndarray,

@@ -135,7 +135,8 @@ class AppRenderer:
         # first frame) take a while to import: loaded here, on the render thread's first
         # job, so the app's first frame never waits for them.
         from app.scene.preview import ScenePreviewRenderer  # deferred: to the render thread (retargeting, OpenCV)
-        from app.scene.stage import StageError, StageRenderer, SyntheticRig  # deferred: as above
+        from app.scene.stage import StageError, StageRenderer  # deferred: as above
+        from ar.rig import SyntheticRig  # deferred: as above (OpenCV)
 
         if isinstance(job, StageJob):
             if self._stage is not None and job.camera is not self._stage_camera:

@@ -9,9 +9,11 @@ or one still). Everything comes from the bundled assets, so it runs on a fresh m
    of the answers, so the retrieved motion is a *different* capture of the same action;
 3. retarget the answer onto the character, lay it along a sample closed path around the
    board (sized so the natural pace fills the requested seconds);
-4. per frame: the synthetic camera sees the board with the previous frame's projection
-   (one frame of latency, as on a real rig), the board pose is estimated and filtered,
-   the character is rendered from the estimated projector pose (projector view), the
+4. per frame: the synthetic rig (:class:`ar.rig.SyntheticRig`, as the projector stage
+   uses it) films the board with the previous frame's projection (one frame of latency,
+   as on a real rig) and steps the rig's frame loop (:meth:`ar.rig.RigTracker.step`:
+   region detection, pose, filter, projector pose; the corners under its own light left
+   out), the character is rendered from the estimated projector pose (projector view), the
    light is cast onto the table (camera view), and an overhead preview is rendered;
 5. every few frames a landing check (ar.closed_loop) measures where projected light
    lands on the table versus where it should, through the true projector.
@@ -33,12 +35,12 @@ from tqdm import tqdm
 
 from app.paths import MOTIONS_DIR
 from app.progress import progress_bar
-from ar import (DEFAULT_BOARD_SPEC, Board, PoseTracker, SyntheticCamera, TrajectoryConfig, default_camera,
-                default_projector, estimate_board_pose, handheld_trajectory)
+from ar import DEFAULT_BOARD_SPEC, Board, default_projector
 from ar.closed_loop import LandingCheck
 from ar.render import ProjectorRenderer, PyrenderSceneRenderer
-from ar.scene import (Lighting, SceneDescription, View, add_character, add_mesh, build_character, overhead_view,
-                      projector_from_scene, ribbon, scaled_model, table_mesh)
+from ar.rig import RIG_SIZE, ProjectedLight, SyntheticRig
+from ar.scene import (Lighting, SceneDescription, View, add_character, add_mesh, board_from_scene, build_character,
+                      overhead_view, ribbon, scaled_model, table_mesh)
 from retrieval.animation import (TablePath, find_loop, follow_path, foot_skate_cm_per_m, path_error_cm,
                                  retarget)
 from retrieval.errors import StoryBeamError
@@ -156,15 +158,12 @@ def run_demo(cfg: DemoConfig) -> dict:
     board = Board(DEFAULT_BOARD_SPEC)
     # The rig (its camera and projector) is fixed at 640x480: tracking must not depend on
     # the video size. The character is rendered at the output size; views are resized.
-    cam_model = scaled_model(default_camera(), 640, 480)
-    proj_model = scaled_model(default_projector(), 640, 480)
+    # The hand's path is long enough that it never turns back within the video.
+    rig = SyntheticRig(board, fps=cfg.fps, seed=cfg.seed, loop_s=max(60.0, (n_frames + 1) / cfg.fps))
+    proj_model = rig.projector_model
     out_proj = scaled_model(default_projector(), cfg.width, cfg.height)
-    same_size = (cfg.width, cfg.height) == (640, 480)
-    # a bright projector (gain 0.9): the light must read on the paper in the camera view
-    cam = SyntheticCamera(board, camera=cam_model, projector=proj_model, supersample=1, projector_gain=0.9)
-    poses = handheld_trajectory(board, n_frames, TrajectoryConfig(fps=cfg.fps, seed=cfg.seed, distance_m=0.55))
-    T_pc = cam.proj_from_cam  # the rig's calibration (true values; see docs/animation.md)
-    K, dist = cam.camera.K, cam.camera.dist
+    same_size = (cfg.width, cfg.height) == RIG_SIZE
+    T_pc = rig.T_proj_from_cam  # the rig's calibration (true values; see docs/animation.md)
 
     # one scene description per view and frame, drawn by pyrender (as the app draws the
     # same descriptions with Kivy GL): the character's part poses, the projector's view
@@ -178,7 +177,6 @@ def run_demo(cfg: DemoConfig) -> dict:
     overhead_cam = overhead_view(cfg.width, cfg.height)
     landing_renderer = ProjectorRenderer(proj_model.width, proj_model.height, proj_model.K)
     landing = LandingCheck(landing_renderer, board)
-    tracker = PoseTracker()
 
     writer = None
     if cfg.video is not None and cfg.still_frame is None:
@@ -188,26 +186,23 @@ def run_demo(cfg: DemoConfig) -> dict:
     render_ms, landing_mm, frame_ms = [], [], []
     parts_ms: dict[str, list[float]] = {"camera": [], "track": [], "overhead": [], "encode": []}
     states = {"tracking": 0, "holding": 0, "lost": 0}
-    prev_light = np.zeros((480, 640, 3), np.uint8)  # what the rig's projector showed last
+    shown: ProjectedLight | None = None  # what the rig's projector showed last
     fit = (lambda img: img) if same_size else (lambda img: cv2.resize(img, (cfg.width, cfg.height), interpolation=cv2.INTER_AREA))
-    rng = np.random.default_rng(cfg.seed)
     stills_written: dict[str, str] = {}
     bar = tqdm(total=n_frames, desc="rendering", unit="frame", disable=not cfg.progress)
     try:
         for i in range(n_frames):
             t_frame = time.perf_counter()
-            T_true = poses[i]
-            frame_bgr = cam.render(T_true, projector_image=prev_light, rng=rng)
-            t1 = time.perf_counter()
-            parts_ms["camera"].append((t1 - t_frame) * 1000)
-            est = estimate_board_pose(frame_bgr, board, K, dist)
-            track = tracker.update(est, i / cfg.fps)
-            parts_ms["track"].append((time.perf_counter() - t1) * 1000)
+            T_true = rig.true_pose(i)
+            track = rig.step(shown)  # film frame i with the last light, and track it
+            frame_bgr = track.image
+            parts_ms["track"].append(track.detect_pose_ms)
+            parts_ms["camera"].append((time.perf_counter() - t_frame) * 1000 - track.detect_pose_ms)
             states[track.state] += 1
             light = np.zeros((cfg.height, cfg.width, 3), np.uint8)
-            if track.T_cam_from_board is not None:
+            if track.T_proj_from_board is not None:
                 desc = SceneDescription(View(cfg.width, cfg.height, out_proj.K,
-                                             projector_from_scene(track.T_cam_from_board, T_pc, board)))
+                                             track.T_proj_from_board @ board_from_scene(board)))
                 add_character(desc, character, part_poses[i])
                 t0 = time.perf_counter()
                 light = projector.render(desc)
@@ -224,7 +219,7 @@ def run_demo(cfg: DemoConfig) -> dict:
                 add_character(above, character, part_poses[i])
                 views["overhead"] = overhead.render(above)
                 parts_ms["overhead"].append((time.perf_counter() - t2) * 1000)
-            prev_light = light if same_size else cv2.resize(light, (640, 480), interpolation=cv2.INTER_LINEAR)
+            shown = ProjectedLight(light, out_proj, track.T_proj_from_board)  # the rig resizes it to its projector
             frame_ms.append((time.perf_counter() - t_frame) * 1000)
             out = np.hstack([views[v] for v in ("camera", "projector", "overhead")]) if cfg.view == "all" else views[cfg.view]
             if writer is not None:

@@ -1,20 +1,21 @@
 """The story on the table: every character of a scene rendered from the projector's
 viewpoint through the tracked rig, for the projector screen and the MP4 export.
 
-Per frame (the same loop as ``storybeam demo``, see :mod:`app.scene.demo_pipeline`):
+Per frame (the rig's one frame loop, :mod:`ar.rig`, as ``storybeam demo`` steps it too):
 
 1. the rig's camera sees the board (and the light the projector showed last frame, as on
-   a real rig: one frame of latency) -- a live camera with calibration files, or with no
-   rig attached the synthetic rig of :mod:`ar.synthetic` held by a synthetic hand
-   (:func:`ar.synthetic.handheld_trajectory`);
-2. the board is detected and its pose filtered (:func:`ar.pose.estimate_board_pose`,
-   :class:`ar.filtering.PoseTracker`: tracking / holding / lost);
+   a real rig: one frame of latency) -- a live camera with calibration files
+   (:class:`ar.rig.LiveRig`), or with no rig attached the synthetic rig held by a
+   synthetic hand (:class:`ar.rig.SyntheticRig`), chosen by :func:`ar.rig.open_rig`;
+2. the rig steps its frame loop (:meth:`ar.rig.RigTracker.step`: region detection, pose,
+   filter -- tracking / holding / lost -- and the projector pose), told what the projector
+   showed (:class:`ar.rig.ProjectedLight`) so the corners its own light fell on are left out;
 3. the characters, posed at story time ``t``, are described as seen by the projector from
    the tracked pose (an :class:`ar.scene.SceneDescription`) and drawn: by pyrender
    (:class:`ar.render.PyrenderSceneRenderer`, the MP4 export and headless tests) or, with
    ``draw=None``, by the caller -- the app draws it with Kivy GL on its UI thread
    (:mod:`app.ui.gl`) and hands the light back (:attr:`StageFrame.light_sink`) for the
-   synthetic rig's next camera frame; black = no light;
+   rig's next frame; black = no light;
 4. the *camera view* is that camera frame: the table with the projected light on it,
    what an audience standing by the rig sees.
 
@@ -34,9 +35,9 @@ the stage runs on the tablet with ``draw=None``.
 """
 from __future__ import annotations
 
+import functools
 import json
 import logging
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,21 +48,16 @@ from app.paths import MOTIONS_DIR
 from app.scene.animator import SceneAnimator
 from app.scene.placement import STAGE_PLACEMENT
 from app.story import Scene
-from ar import (DEFAULT_BOARD_SPEC, Board, CameraCalibration, PinholeModel, PoseTracker, ProjectorCalibration,
-                SyntheticCamera, TrajectoryConfig, default_camera, default_projector, estimate_board_pose,
-                handheld_trajectory, project_points)
-from ar.camera_sources import CameraSource, open_camera_source
-from ar.filtering import TrackerOutput
-from ar.live import LiveStats, LiveTracker
-from ar.scene import SceneDescription, View, add_character, projector_from_scene, scaled_model
+from ar import DEFAULT_BOARD_SPEC, Board, project_points
+from ar.errors import RigError
+from ar.rig import ProjectedLight, open_rig
+from ar.scene import SceneDescription, View, add_character, board_from_scene, scaled_model
 from retrieval.errors import StoryBeamError
 from retrieval.motion import positions
 
 log = logging.getLogger(__name__)
 
 STAGE_CHARACTER_HEIGHT_M = 0.10
-#: the rig renders and tracks at this size whatever the output size (as the demo does)
-RIG_SIZE = (640, 480)
 VIEWS = ("projector", "camera")
 
 
@@ -90,124 +86,9 @@ class StageFrame:
     #: what the projector shows, for a caller that draws it itself (``draw=None``: then
     #: ``projector`` -- and ``rgb`` for the projector view -- is None until it is drawn)
     description: SceneDescription | None = None
-    #: give the drawn light image (RGB) back here: the synthetic rig films it next frame
+    #: give the drawn light image (RGB) back here: the rig's next frame is tracked knowing
+    #: where it fell (and the synthetic rig films it)
     light_sink: object = None
-
-
-# ---------------------------------------------------------------------------- rigs
-class SyntheticRig:
-    """No rig attached: the bench camera and projector (:mod:`ar.synthetic`) held over the
-    board by a synthetic hand, so the whole chain (detection, filter, projector render,
-    light on the table) runs and can be previewed and exported."""
-
-    live = False
-
-    def __init__(self, board: Board | None = None, fps: float = 30.0, seed: int = 0, loop_s: float = 60.0):
-        """``board``: the board the hand holds the rig over (default: the default board)."""
-        board = board if board is not None else Board(DEFAULT_BOARD_SPEC)
-        w, h = RIG_SIZE
-        self.camera_model = scaled_model(default_camera(), w, h)
-        self.projector_model = scaled_model(default_projector(), w, h)
-        # a bright projector (as in the demo): the light must read on the paper
-        self.cam = SyntheticCamera(board, camera=self.camera_model, projector=self.projector_model,
-                                   supersample=1, projector_gain=0.9)
-        self.T_proj_from_cam = self.cam.proj_from_cam
-        self.poses = handheld_trajectory(board, int(loop_s * fps), TrajectoryConfig(fps=fps, seed=seed,
-                                                                                   distance_m=0.55))
-        self._rng = np.random.default_rng(seed)
-
-    def capture(self, i: int, light: np.ndarray) -> np.ndarray:
-        """BGR camera frame number ``i`` with ``light`` (RGB, RIG_SIZE) on the table."""
-        n = len(self.poses)
-        k = i % (2 * n)  # ping-pong: the hand does not jump when the trajectory ends
-        T = self.poses[k if k < n else 2 * n - 1 - k]
-        return self.cam.render(T, projector_image=light, rng=self._rng)
-
-    def close(self) -> None:
-        pass
-
-
-class LiveRig:
-    """A real rig: a camera source (:mod:`ar.camera_sources`: a device number, a video
-    file, a folder of images -- a recording stands in for the camera, looped and paced at
-    its frame rate) and the calibration files (``camera.json`` from the calibration
-    wizard, ``projector.json`` from ``storybeam calibrate projector``).
-
-    Tracking runs on the rig's own threads (:class:`ar.live.LiveTracker`: the newest
-    frame wins, dropped frames are counted): :meth:`track` returns at once with the
-    newest result, so neither the UI nor the render thread ever waits for detection."""
-
-    live = True
-
-    def __init__(self, camera: int | str | CameraSource, camera_json: Path, projector_json: Path,
-                 board: Board | None = None, first_frame_timeout_s: float = 5.0):
-        cam = CameraCalibration.load(camera_json)
-        proj = ProjectorCalibration.load(projector_json)
-        self.camera_model = PinholeModel(cam.camera_matrix, cam.dist_coeffs, *cam.image_size)
-        self.projector_model = PinholeModel(proj.camera_matrix, proj.dist_coeffs, *proj.image_size)
-        self.T_proj_from_cam = proj.T_proj_from_cam
-        self.board = board if board is not None else Board(DEFAULT_BOARD_SPEC)
-        source = camera if isinstance(camera, CameraSource) else open_camera_source(camera, paced=True, loop=True)
-        self.source_name = source.name
-        self.first_frame_timeout_s = first_frame_timeout_s
-        self.tracker = LiveTracker(source, self.board, self.camera_model.K, self.camera_model.dist,
-                                   keep_images=True).start()
-
-    def track(self) -> tuple[np.ndarray, TrackerOutput]:
-        """The newest tracked frame (BGR) and what the tracker said; waits only for the very first."""
-        deadline = time.monotonic() + self.first_frame_timeout_s
-        while (result := self.tracker.latest()) is None:
-            stats = self.tracker.stats()
-            if stats.error or not stats.running or time.monotonic() > deadline:
-                raise StageError(f"camera {self.source_name}: {stats.error or 'no frame arrived'}")
-            time.sleep(0.005)
-        stats = self.tracker.stats()
-        if stats.error:
-            raise StageError(stats.error)
-        return result.image, result.output
-
-    def capture(self, i: int, light: np.ndarray) -> np.ndarray:
-        """The newest camera frame (BGR)."""
-        return self.track()[0]
-
-    def stats(self) -> LiveStats:
-        """Frames captured, processed, dropped, detected (see :class:`ar.live.LiveStats`)."""
-        return self.tracker.stats()
-
-    def close(self) -> None:
-        self.tracker.stop()
-
-
-def _calibration_files(folder: Path | None) -> tuple[Path, Path] | None:
-    if folder is None:
-        return None
-    camera_json, projector_json = Path(folder) / "camera.json", Path(folder) / "projector.json"
-    return (camera_json, projector_json) if camera_json.is_file() and projector_json.is_file() else None
-
-
-def open_rig(profile_dir: Path | None, board: Board, fps: float = 30.0,
-             camera: int | str | CameraSource | None = 0):
-    """A :class:`LiveRig` when calibration files are found and the camera source opens,
-    else the :class:`SyntheticRig` (preview mode). Never raises for a missing rig.
-
-    ``camera``: a device number, a video file or a folder of images (``storybeam app
-    --camera``, the teacher's setting), or a source already open (the Kivy camera, made by
-    the app on its main thread); ``None`` = the synthetic rig. Calibration files come from
-    the profile folder, else (for a recording) from the recording's folder."""
-    if camera is not None:
-        path = Path(str(camera))
-        files = _calibration_files(profile_dir)
-        recording = not isinstance(camera, CameraSource) and not str(camera).strip().isdigit()
-        if files is None and recording:
-            files = _calibration_files(path if path.is_dir() else path.parent)
-        if files is not None:
-            try:
-                return LiveRig(camera, *files, board=board)
-            except (StoryBeamError, OSError) as exc:
-                log.warning("rig not usable, projector preview uses the synthetic rig: %s", exc)
-        else:
-            log.info("no camera.json + projector.json for camera %s: the projector uses the synthetic rig", camera)
-    return SyntheticRig(board, fps=fps)
 
 
 # ---------------------------------------------------------------------------- renderer
@@ -238,7 +119,6 @@ class StageRenderer:
         self.light_model = model
         self.draw = draw
         self._pyrender = None  # made on the first frame drawn with draw="pyrender"
-        self.tracker = PoseTracker()
         self.animator = SceneAnimator.from_library(motions_dir or MOTIONS_DIR, fps=fps,
                                                    character_height_m=STAGE_CHARACTER_HEIGHT_M,
                                                    placement=STAGE_PLACEMENT)
@@ -246,9 +126,7 @@ class StageRenderer:
         self._cast: list = []  # (design, (F, P, 4, 4) part poses) per character on stage
         self._hips_tracks: list = []
         self.problems: list[str] = []
-        self._tick = 0
-        self._t0 = time.monotonic()
-        self._prev_light = np.zeros((*RIG_SIZE[::-1], 3), np.uint8)
+        self._light: ProjectedLight | None = None  # what the projector showed last (None: nothing yet)
 
     @property
     def live(self) -> bool:
@@ -280,22 +158,18 @@ class StageRenderer:
         if view not in VIEWS:
             raise StageError(f"unknown stage view {view!r}; choose one of {', '.join(VIEWS)}")
         self.prepare(scene)
-        i = self._tick
-        self._tick += 1
-        if self.rig.live:  # tracked on the rig's own threads, in real time (newest frame wins)
-            frame_bgr, track = self.rig.track()
-        else:  # the synthetic rig, tracked here at its own frame rate
-            frame_bgr = self.rig.capture(i, self._prev_light)
-            cam = self.rig.camera_model
-            estimate = estimate_board_pose(frame_bgr, self.board, cam.K, cam.dist)
-            track = self.tracker.update(estimate, i / self.rig_fps)
+        try:  # the rig's frame loop: a live rig answers its threads' newest, the synthetic one films the next
+            track = self.rig.step(self._light)
+        except RigError as exc:
+            raise StageError(str(exc)) from exc
+        frame_bgr = track.image
         m = self.light_model
         light = np.zeros((m.height, m.width, 3), np.uint8)
         character_px: list = []
         desc = None
-        if track.T_cam_from_board is not None:
+        if track.T_proj_from_board is not None:
             frame = int(round(max(t, 0.0) * self.fps))
-            T_proj_from_scene = projector_from_scene(track.T_cam_from_board, self.rig.T_proj_from_cam, self.board)
+            T_proj_from_scene = track.T_proj_from_board @ board_from_scene(self.board)
             desc = self.describe(T_proj_from_scene, frame)
             if self.draw is not None:
                 light = self._draw(desc)
@@ -303,16 +177,18 @@ class StageRenderer:
                 f = int(np.clip(frame, 0, len(hips) - 1))
                 px = project_points(hips[f][None], T_proj_from_scene, m.K, np.zeros(5))[0]
                 character_px.append((float(px[0]), float(px[1])))
+        light_sink = None
         if self.draw is None and desc is not None:  # the caller draws it, and gives the light back
             light = None
+            light_sink = functools.partial(self.take_light, T_proj_from_board=track.T_proj_from_board)
         else:
-            self.take_light(light)
+            self.take_light(light, track.T_proj_from_board)
         if view == "camera":
             rgb = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2RGB)
         else:
             rgb = light
         return StageFrame(rgb, light, track.state, view, character_px, list(self.problems), self.live,
-                          scene.id, float(t), desc, None if light is not None else self.take_light)
+                          scene.id, float(t), desc, light_sink)
 
     def describe(self, T_proj_from_scene: np.ndarray, frame: int) -> SceneDescription:
         """What the projector shows at animation ``frame`` from ``T_proj_from_scene``: every
@@ -331,11 +207,11 @@ class StageRenderer:
             self._pyrender = PyrenderSceneRenderer()
         return self._pyrender.render(desc)
 
-    def take_light(self, light: np.ndarray) -> None:
-        """The light image just shown (RGB, any size): the synthetic rig films it on the
-        table in its next camera frame. Safe to call from another thread."""
-        light = np.asarray(light)
-        self._prev_light = light if light.shape[:2] == RIG_SIZE[::-1] else cv2.resize(light, RIG_SIZE)
+    def take_light(self, light: np.ndarray, T_proj_from_board: np.ndarray | None = None) -> None:
+        """The light image just shown (RGB, any size), drawn from ``T_proj_from_board``: the
+        rig's next frame is tracked knowing where it fell (the synthetic rig films it on the
+        table). Safe to call from another thread."""
+        self._light = ProjectedLight(np.asarray(light), self.light_model, T_proj_from_board)
 
     def close(self) -> None:
         try:
@@ -346,5 +222,4 @@ class StageRenderer:
             self.rig.close()
 
 
-__all__ = ["StageError", "StageFrame", "SyntheticRig", "LiveRig", "open_rig", "StageRenderer",
-           "STAGE_CHARACTER_HEIGHT_M", "RIG_SIZE", "VIEWS"]
+__all__ = ["StageError", "StageFrame", "StageRenderer", "STAGE_CHARACTER_HEIGHT_M", "VIEWS"]

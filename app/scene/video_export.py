@@ -209,7 +209,8 @@ def story_frames_3d(story: Story, fps: float = 15.0, view: str = "camera") -> It
         finally:
             renderer.close()
         return
-    from app.scene.stage import StageRenderer, SyntheticRig  # optional: pyrender (the caller falls back to 2-D)
+    from app.scene.stage import StageRenderer  # optional: pyrender (the caller falls back to 2-D)
+    from ar.rig import SyntheticRig  # optional: as above (OpenCV), with the stage
 
     # the synthetic hand moves at the video's frame rate; the rig is never a live camera here
     stage = StageRenderer(rig=SyntheticRig(fps=fps), fps=30.0, rig_fps=fps)

@@ -1,8 +1,9 @@
 """The AR bench: tracking accuracy, jitter, landing error and timing on synthetic frames.
 
 For each named condition a handheld trajectory is rendered by the synthetic camera;
-every frame goes through the real chain -- detection, IPPE pose, One-Euro tracker,
-projector render -- and is compared with the ground truth.
+every frame goes through the product's frame loop (:meth:`ar.rig.RigTracker.step`: region
+detection, IPPE pose, the Kalman (or One-Euro) tracker, projector pose), then the
+projector render, and is compared with the ground truth.
 
 The chain uses *estimated* calibrations by default (camera calibrated from 12
 synthetic views, projector calibrated with the guided sequence on the synthetic rig),
@@ -36,9 +37,10 @@ from ar.calibration import (CameraCalibration, ProjectorCalibration, ProjectorCa
 from ar.closed_loop import LandingCheck
 from ar.filtering import TRACKING, PoseKalmanFilter, PoseOneEuroFilter, PoseTracker
 from ar.geometry import pose_error, rotation_angle_deg
-from ar.pose import RegionPoseEstimator, draw_pose, estimate_board_pose
+from ar.pose import draw_pose, estimate_board_pose
 from ar.render import ProjectorRenderer, add_test_scene
-from ar.scene import SceneDescription, View, add_character, build_character, projector_from_scene, rest_motion, scaled_model
+from ar.rig import RigTracker
+from ar.scene import SceneDescription, View, add_character, board_from_scene, build_character, rest_motion, scaled_model
 from ar.synthetic import (Degradation, SyntheticCamera, TrajectoryConfig, calibration_poses,
                           capture_projector_sequence, default_camera, default_proj_from_cam, default_projector,
                           handheld_trajectory)
@@ -151,20 +153,20 @@ def run_bench(cfg: BenchConfig, progress=None, examples: dict | None = None) -> 
     for cond in cfg.conditions:
         traj = TrajectoryConfig(**{**cond.trajectory.__dict__, "seed": cfg.seed})
         poses = handheld_trajectory(board, cfg.frames, traj)
-        raw_tracker = PoseTracker(filter_enabled=False)
-        tracker = PoseTracker(pose_filter=PoseOneEuroFilter() if cfg.pose_filter == "one-euro" else PoseKalmanFilter())
+        raw_tracker = PoseTracker(filter_enabled=False)  # the unfiltered poses' jitter, beside the rig's
+        rig = RigTracker(board, K, dist, T_pc, tracker=PoseTracker(
+            pose_filter=PoseOneEuroFilter() if cfg.pose_filter == "one-euro" else PoseKalmanFilter()))
         rot_e, trans_e, frot_e, ftrans_e, detect_ms, render_ms, land = [], [], [], [], [], [], []
         raw_pairs, filt_pairs = [], []
         detected = 0
         states = {"tracking": 0, "holding": 0, "lost": 0}
         for i, T_true in enumerate(poses):
             frame = cam.render(T_true, degradation=cond.degradation, rng=rng)
-            t0 = time.perf_counter()
-            est = estimate_board_pose(frame, board, K, dist)
-            detect_ms.append((time.perf_counter() - t0) * 1000)
             ts = i / traj.fps
+            step = rig.step(frame, ts, i)
+            detect_ms.append(step.detect_pose_ms)
+            est, filt = step.estimate, step.output
             raw = raw_tracker.update(est, ts)
-            filt = tracker.update(est, ts)
             states[filt.state] += 1
             if est is not None:
                 detected += 1
@@ -305,9 +307,9 @@ def measure_frames(renderer_name: str, factory, conditions: list[Condition], fra
                    board_spec: str = DEFAULT_BOARD_SPEC, one_core: bool = True) -> dict:
     """Camera frame -> projector frame, timed on ``frames`` synthetic 640x480 frames per condition.
 
-    Per frame: board detection and pose on the region the last pose predicts
-    (:class:`ar.pose.RegionPoseEstimator`, whole frame when lost), the Kalman tracker, the
-    projector's scene (a 10 cm robot standing at the board centre, its 20-odd parts posed
+    Per frame: the product's frame loop (:meth:`ar.rig.RigTracker.step`: board detection
+    and pose on the region the last pose predicts, whole frame when lost, the Kalman
+    tracker, the projector pose), the projector's scene (a 10 cm robot standing at the board centre, its 20-odd parts posed
     per frame) and the render by
     the renderer ``factory()`` makes. ``detect_pose_ms`` covers detection, pose and filter; ``render_ms``
     making the description and rendering it; ``frame_ms`` both. The rig uses its true
@@ -339,8 +341,7 @@ def measure_frames(renderer_name: str, factory, conditions: list[Condition], fra
         traj = TrajectoryConfig(**{**cond.trajectory.__dict__, "seed": seed})
         truth = handheld_trajectory(board, frames, traj)
         images = [cam.render(T, degradation=cond.degradation, rng=rng) for T in truth]
-        estimator = RegionPoseEstimator(board, camera.K, camera.dist)
-        tracker = PoseTracker()
+        rig = RigTracker(board, camera.K, camera.dist, T_pc)
         legacy = Board(board_spec, full_dictionary=True)  # the detection before issue 13, timed alongside
         det_ms, ren_ms, frame_ms, rot, trans, legacy_ms = [], [], [], [], [], []
         cpu_det, cpu_ren, cpu_frame, cpu_legacy, lit = [], [], [], [], []
@@ -351,11 +352,10 @@ def measure_frames(renderer_name: str, factory, conditions: list[Condition], fra
             legacy_ms.append((time.perf_counter() - t_legacy) * 1000)
             cpu_legacy.append((time.process_time() - c_legacy) * 1000)
             t0, c0 = time.perf_counter(), time.process_time()
-            est = estimator.estimate(img)
-            track = tracker.update(est, i / traj.fps)
+            step = rig.step(img, i / traj.fps, i)
             t1, c1 = time.perf_counter(), time.process_time()
-            T_ps = (projector_from_scene(track.T_cam_from_board, T_pc, board)
-                    if track.T_cam_from_board is not None else None)
+            est = step.estimate
+            T_ps = step.T_proj_from_board @ board_from_scene(board) if step.T_proj_from_board is not None else None
             light = renderer.render(stage_description(view, character, poses_char[i % len(poses_char)], T_ps))
             t2, c2 = time.perf_counter(), time.process_time()
             assert light.shape == (h, w, 3)
@@ -374,7 +374,7 @@ def measure_frames(renderer_name: str, factory, conditions: list[Condition], fra
             "detect_pose_ms_median": _stat(det_ms, 50), "render_ms_median": _stat(ren_ms, 50),
             "frame_ms_median": _stat(frame_ms, 50), "frame_ms_p95": _stat(frame_ms, 95),
             "detect_rate": len(rot) / frames, "rot_err_deg_median": _stat(rot, 50),
-            "trans_err_mm_median": _stat(trans, 50), "search_paths": dict(estimator.counts),
+            "trans_err_mm_median": _stat(trans, 50), "search_paths": dict(rig.counts),
             "lit_fraction_median": _stat(lit, 50),  # share of projector pixels lit: the character is drawn
             "before_detect_pose_ms_median": _stat(legacy_ms, 50),
             "detect_pose_speedup": _stat(legacy_ms, 50) / max(1e-9, _stat(det_ms, 50)),

@@ -1,5 +1,6 @@
 """Lost-tracking stress: long synthetic sequences where the board is covered, leaves the
-view, blurs and flickers, fed through the real detection + :class:`PoseTracker` chain.
+view, blurs and flickers, fed through the product's frame loop (:meth:`ar.rig.RigTracker.step`:
+region detection, pose, :class:`ar.filtering.PoseTracker`).
 
 A *scenario* is a handheld trajectory (:func:`ar.synthetic.handheld_trajectory`) cut into
 segments: ``visible`` stretches separated by events — the board fully covered by a hand
@@ -9,6 +10,8 @@ segments: ``visible`` stretches separated by events — the board fully covered 
 against the known truth and measures:
 
 * **crashes**: any exception from detection, pose or tracker;
+* **search paths**: how often the region search found the board, and how often the whole
+  frame was searched (:attr:`ar.rig.RigTracker.counts`);
 * **wild poses**: a TRACKING output whose frame-to-frame jump exceeds the true motion by
   more than ``jump_mm`` / ``jump_deg`` (a pose that leaps while the rig barely moves),
   or whose error to the truth exceeds ``wild_mm`` / ``wild_deg``;
@@ -32,7 +35,7 @@ from tqdm import tqdm
 from ar.boards import DEFAULT_BOARD_SPEC, Board
 from ar.filtering import TRACKING, PoseTracker
 from ar.geometry import pose_error, rotation_angle_deg
-from ar.pose import estimate_board_pose
+from ar.rig import RigTracker
 from ar.synthetic import (Degradation, PinholeModel, SyntheticCamera, TrajectoryConfig, default_camera,
                           handheld_trajectory)
 
@@ -110,6 +113,7 @@ class ScenarioResult:
     never_recovered: int = 0
     crash_examples: list = field(default_factory=list)
     ms_per_frame: float = 0.0
+    search_paths: dict = field(default_factory=dict)  # the detector's path counts (region, full, ...)
 
     def to_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -127,7 +131,8 @@ class ScenarioResult:
 def run_scenario(n_frames: int, seed: int = 0, camera: PinholeModel | None = None,
                  thresholds: Thresholds | None = None, tracker: PoseTracker | None = None,
                  progress=None) -> ScenarioResult:
-    """Run one long sequence (see module docstring); ``progress(n)`` advances a bar."""
+    """Run one long sequence (see module docstring); ``tracker``: the rig's filter (default
+    the product's); ``progress(n)`` advances a bar."""
     th = thresholds or Thresholds()
     rng = np.random.default_rng(seed)
     board = Board(DEFAULT_BOARD_SPEC)
@@ -136,7 +141,7 @@ def run_scenario(n_frames: int, seed: int = 0, camera: PinholeModel | None = Non
     cfg = TrajectoryConfig(seed=seed)
     poses = handheld_trajectory(board, n_frames, cfg)
     schedule = make_schedule(n_frames, rng)
-    tracker = tracker or PoseTracker()
+    rig = RigTracker(board, K, dist, tracker=tracker)
     res = ScenarioResult()
     prev_out: np.ndarray | None = None
     prev_true: np.ndarray | None = None
@@ -165,8 +170,7 @@ def run_scenario(n_frames: int, seed: int = 0, camera: PinholeModel | None = Non
                 frame = cam.render(T_true, degradation=deg, rng=rng)
                 if blur is not None:
                     frame = _motion_blur(frame, *blur)
-                est = estimate_board_pose(frame, board, K, dist)
-                out = tracker.update(est, i / cfg.fps)
+                out = rig.step(frame, i / cfg.fps, i).output
             except Exception as exc:  # noqa: BLE001 - a crash is what this harness counts
                 res.crashes += 1
                 if len(res.crash_examples) < 5:
@@ -202,6 +206,7 @@ def run_scenario(n_frames: int, seed: int = 0, camera: PinholeModel | None = Non
     res.never_recovered = len(pending)
     res.recoveries += [(kind, None) for kind, _ in pending]
     res.ms_per_frame = round(1000 * (time.perf_counter() - t_start) / max(1, n_frames), 1)
+    res.search_paths = dict(rig.counts)
     return res
 
 

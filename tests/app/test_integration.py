@@ -196,25 +196,18 @@ def test_stage_keeps_the_show_going_when_a_live_rig_fails():
     pytest.importorskip("pyrender")
     from app.story.demo_story import demo_story
     from app.scene import AppRenderer, StageJob
-    from app.scene.stage import StageError, SyntheticRig
-    from ar import PoseTracker, estimate_board_pose
+    from ar.errors import RigError
+    from ar.rig import SyntheticRig
     from ar.boards import DEFAULT_BOARD_SPEC, Board
 
     class UnpluggedRig(SyntheticRig):
-        """A live rig (tracked on its own threads, :meth:`track`) whose camera stops after two frames."""
+        """A live rig (its newest tracked frame at each :meth:`step`) whose camera stops after two frames."""
         live = True
 
-        def __init__(self, board):
-            super().__init__(board)
-            self.board, self.tracker, self.i = board, PoseTracker(), 0
-
-        def track(self):
-            if self.i >= 2:
-                raise StageError("the rig's camera stopped sending frames")
-            cam, proj = self.camera_model, self.projector_model
-            frame = self.capture(self.i, np.zeros((proj.height, proj.width, 3), np.uint8))
-            self.i += 1
-            return frame, self.tracker.update(estimate_board_pose(frame, self.board, cam.K, cam.dist), self.i / 30)
+        def step(self, light=None):
+            if self._i >= 2:
+                raise RigError("the rig's camera stopped sending frames")
+            return super().step(None)
 
     renderer = AppRenderer(rig=UnpluggedRig(Board(DEFAULT_BOARD_SPEC)))
     scene = demo_story().scenes[0]

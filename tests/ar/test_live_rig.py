@@ -4,7 +4,8 @@ The session (:func:`ar.synthetic.record_rig_session`: a moving hand-held rig, a 
 turn with motion blur, noise, an exposure dip, a hand over the board) is written as a
 folder of PNGs and as an MP4, then played -- paced at 30 fps, like a camera -- through the
 same path the app uses: a camera source, :class:`ar.live.LiveTracker` (grabber and
-tracker threads, newest frame wins) with the region search and the Kalman tracker. Each
+tracker threads, newest frame wins) stepping the rig's frame loop
+(:class:`ar.rig.RigTracker`: the region search and the Kalman tracker). Each
 test prints the pose error, the detect rate and the frames dropped.
 """
 from __future__ import annotations
@@ -21,6 +22,7 @@ from ar.filtering import HOLDING, TRACKING
 from ar.geometry import pose_error
 from ar.live import LiveTracker
 from ar.pose import RegionPoseEstimator
+from ar.rig import LiveRig, RigTracker, SyntheticRig, open_rig
 from ar.synthetic import SessionConfig, SyntheticCamera, load_session_truth, record_rig_session
 
 pytestmark = pytest.mark.slow  # records a board session and plays it through the live rig's threads
@@ -43,7 +45,7 @@ def session(board, tmp_path_factory):
 
 def _play(source, board, truth, camera_K, camera_dist, estimator=None):
     results = []
-    live = LiveTracker(source, board, camera_K, camera_dist, on_result=results.append, estimator=estimator)
+    live = LiveTracker(source, RigTracker(board, camera_K, camera_dist, estimator=estimator), on_result=results.append)
     with live:
         assert live.wait(120), "the recording did not play through"
     stats = live.stats()
@@ -115,10 +117,10 @@ class _SlowEstimator(RegionPoseEstimator):
         self.period_s = period_s
         self.seen_captured: list[int] = []
 
-    def estimate(self, image):
+    def estimate(self, image, select=None):
         self.seen_captured.append(self.live_ref[0].stats().captured)
         time.sleep(3 * self.period_s)
-        return super().estimate(image)
+        return super().estimate(image, select)
 
 
 def test_a_slow_tracker_drops_frames_and_always_takes_the_newest(session, board):
@@ -127,8 +129,8 @@ def test_a_slow_tracker_drops_frames_and_always_takes_the_newest(session, board)
     live_ref = []
     est = _SlowEstimator(board, rec.camera.K, rec.camera.dist, live_ref=live_ref, period_s=1 / 30)
     results = []
-    live = LiveTracker(FrameListSource(frames, fps=30.0, paced=True), board, rec.camera.K, rec.camera.dist,
-                       estimator=est, on_result=results.append)
+    live = LiveTracker(FrameListSource(frames, fps=30.0, paced=True),
+                       RigTracker(board, rec.camera.K, rec.camera.dist, estimator=est), on_result=results.append)
     live_ref.append(live)
     with live:
         assert live.wait(60)
@@ -144,7 +146,8 @@ def test_a_slow_tracker_drops_frames_and_always_takes_the_newest(session, board)
 
 def test_latest_never_blocks_while_tracking(session, board):
     rec, _ = session
-    live = LiveTracker(FrameListSource(rec.frames[:20], fps=30.0, paced=True), board, rec.camera.K, rec.camera.dist)
+    live = LiveTracker(FrameListSource(rec.frames[:20], fps=30.0, paced=True),
+                       RigTracker(board, rec.camera.K, rec.camera.dist))
     waits = []
     with live:
         while live.stats().running:
@@ -161,20 +164,18 @@ def test_the_app_opens_a_recording_as_its_live_rig(session, board, tmp_path):
     """``open_rig`` with a recording (``storybeam app --camera dir/``): a live rig tracked on
     its own threads, calibration from the recording's folder; without calibration files,
     or with a source that does not open, the synthetic rig (never an exception)."""
-    pytest.importorskip("pyrender")  # app.scene.stage imports the pyrender renderer
-    from app.scene.stage import LiveRig, SyntheticRig, open_rig
-
+    pytest.importorskip("pyrender")  # the stage draws the light with the pyrender renderer
     rec, written = session
     rig = open_rig(None, board, camera=str(written["folder"]))
     try:
         assert isinstance(rig, LiveRig) and rig.live
-        frame, out = rig.track()
-        assert frame.shape == (480, 640, 3)
+        assert rig.step().image.shape == (480, 640, 3)
         deadline = time.monotonic() + 20
         while rig.stats().detected < 5 and time.monotonic() < deadline:
             time.sleep(0.05)
-        frame, out = rig.track()
-        assert rig.stats().detected >= 5 and out.state in (TRACKING, HOLDING)
+        state = rig.step()
+        assert rig.stats().detected >= 5 and state.state in (TRACKING, HOLDING)
+        assert state.T_proj_from_board is not None  # the projector's pose, through projector.json
         # the projector stage draws the demo story's characters from the live rig's newest pose
         from app.scene.stage import StageRenderer
         from app.story.demo_story import demo_story
@@ -203,7 +204,7 @@ class _DyingSource(FrameListSource):
 
 def test_a_camera_that_dies_is_reported_not_hung(session, board):
     rec, _ = session
-    live = LiveTracker(_DyingSource(rec.frames[:10], fps=30.0, name="usb0"), board, rec.camera.K, rec.camera.dist)
+    live = LiveTracker(_DyingSource(rec.frames[:10], fps=30.0, name="usb0"), RigTracker(board, rec.camera.K, rec.camera.dist))
     with live:
         assert live.wait(20)
     stats = live.stats()
