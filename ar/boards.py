@@ -88,7 +88,7 @@ def _marker_params() -> "cv2.aruco.DetectorParameters":
 
     Sampling 8 px per marker cell (default 4) when un-warping a candidate lets the
     default board's 2 cm markers be read at 1 m with a 700 px focal length (the bench's
-    far_1.0m condition; see docs/ar.md). Lowering
+    far_1.0m condition; see docs/design/ar.md). Lowering
     ``minMarkerPerimeterRate`` as well was tried and dropped: it lost corners on a
     sharp fronto-parallel print scan.
     """
@@ -103,7 +103,7 @@ def board_dictionary(full: "cv2.aruco.Dictionary", n_markers: int) -> "cv2.aruco
 
     Why: OpenCV identifies each marker candidate against *every* code of the dictionary,
     so with ``DICT_6X6_250`` the default board (17 markers) paid for 250 codes: about 25 ms
-    of a 640x480 frame on one core, against about 8 ms with its own 17 (docs/ar.md). The detections do
+    of a 640x480 frame on one core, against about 8 ms with its own 17 (docs/design/ar.md). The detections do
     not change: a candidate is accepted for code ``i`` when its bits are within
     ``r = maxCorrectionBits * errorCorrectionRate`` of ``i``; the codes of a predefined
     dictionary are at least ``2 maxCorrectionBits + 1 > 2 r`` bits apart in every rotation

@@ -6,7 +6,7 @@ rig the projector shakes *with* the camera, so real hand tremor must be followed
 exactly (filtering it away makes the projection shake on the table); only the
 *estimation* noise should be removed, and that noise varies a lot from frame to frame
 (clean vs. dim, occluded or steep views). The Kalman gain follows it. Measured on the
-bench (see docs/ar.md) it lowers jitter in every condition without raising the error.
+bench (see docs/design/ar.md) it lowers jitter in every condition without raising the error.
 
 Alternative: a One-Euro filter (Casiez et al., CHI 2012) applied on the pose manifold:
 translation is filtered per axis; rotation is filtered in the tangent space of the

@@ -163,7 +163,7 @@ def run_demo(cfg: DemoConfig) -> dict:
     proj_model = rig.projector_model
     out_proj = scaled_model(default_projector(), cfg.width, cfg.height)
     same_size = (cfg.width, cfg.height) == RIG_SIZE
-    T_pc = rig.T_proj_from_cam  # the rig's calibration (true values; see docs/animation.md)
+    T_pc = rig.T_proj_from_cam  # the rig's calibration (true values; see docs/design/animation.md)
 
     # one scene description per view and frame, drawn by pyrender (as the app draws the
     # same descriptions with Kivy GL): the character's part poses, the projector's view

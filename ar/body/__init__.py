@@ -15,7 +15,7 @@ Modules:
 
 Needs numpy and OpenCV (the core ``ar``); never Kivy or a renderer. ``import ar.body``
 works without an interpreter; :class:`BodyTracker` then raises ``PoseModelError``.
-The pipeline and how it was checked against MediaPipe: docs/pose.md.
+The pipeline and how it was checked against MediaPipe: docs/notebook/pose.md.
 """
 from __future__ import annotations
 

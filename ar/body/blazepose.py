@@ -53,7 +53,7 @@ AUX_SLICE = slice(33, 35)
 #: Python solution (``mp.solutions.pose``) loses that option when it expands the graph
 #: (its canonical config holds an empty options block for that node), so the calculator
 #: runs with its default, 9. StoryBeam follows what MediaPipe actually runs: with 7, feet
-#: and hands differ from the reference by up to 2 px; with 9 they agree (docs/pose.md).
+#: and hands differ from the reference by up to 2 px; with 9 they agree (docs/notebook/pose.md).
 HEATMAP_KERNEL = 9
 HEATMAP_MIN_CONFIDENCE = 0.5  # RefineLandmarksFromHeatmapCalculatorOptions default
 POSE_PRESENCE_THRESHOLD = 0.5  # ThresholdingCalculator: present when flag > 0.5

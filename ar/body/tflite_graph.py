@@ -4,7 +4,7 @@ only feed them.
 Why: BlazePose's "full" landmark model has five outputs; StoryBeam reads four. The fifth
 is a 256×256 segmentation mask whose head (46 of its 332 operators, ending in a bilinear
 upsampling to the full crop) costs a third of every landmark inference: 13.8 ms against
-9.2 ms without it (one core, XNNPACK; ``storybeam bench act-it-out`` and docs/pose.md).
+9.2 ms without it (one core, XNNPACK; ``storybeam bench act-it-out`` and docs/notebook/pose.md).
 MediaPipe runs that head on every frame even with ``enable_segmentation=False``.
 
 Method: the model is a FlatBuffer (TFLite schema ``Model -> subgraphs[0] -> outputs,

@@ -16,7 +16,7 @@ Per frame (:meth:`BodyTracker.process`), as MediaPipe's ``pose_landmark_cpu`` gr
    and detects again on the next one; StoryBeam (``redetect=True``, the default) detects
    again *in the same frame* and runs the landmark model once more on the fresh region,
    so a frame where tracking slips is not a missing frame: on 93 renders of the cartoon
-   kid, 80 losses cost 191 frames, 48 of them one frame each (docs/pose.md).
+   kid, 80 losses cost 191 frames, 48 of them one frame each (docs/notebook/pose.md).
 3. **Back to the frame.** Landmarks rotated and scaled out of the crop into the frame;
    world landmarks rotated by the region's angle; the first 33 kept, landmarks 33 and 34
    (auxiliary) kept for the next region.

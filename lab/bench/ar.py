@@ -237,7 +237,7 @@ def format_table(result: dict) -> str:
     return "\n".join(lines)
 
 
-#: conditions whose middle frame is written by ``--examples`` (the ones docs/ar.md shows)
+#: conditions whose middle frame is written by ``--examples`` (the ones docs/design/ar.md shows)
 EXAMPLE_CONDITIONS = ("clean", "occlusion_30", "low_light")
 
 
