@@ -7,8 +7,8 @@ from app.ui.env import prepare_kivy_env
 
 prepare_kivy_env()
 
-from app.scene import app_renderer_factory  # noqa: E402
-from app.scene.app_renderer import default_camera_choice, saved_camera_choice  # noqa: E402
+from app.player import app_renderer_factory  # noqa: E402
+from app.player.app_renderer import default_camera_choice, saved_camera_choice  # noqa: E402
 from app.ui.app import StoryBeamApp  # noqa: E402
 
 
@@ -16,7 +16,7 @@ def make_app() -> StoryBeamApp:
     """The app on its profile, with the 3-D Play preview and projector stage drawn by Kivy
     GL (OpenGL ES 2: no pyrender on the tablet). The rig's camera: the teacher's setting,
     else on Android the tablet's own camera through Kivy once the rig is calibrated
-    (:func:`app.scene.app_renderer.default_camera_choice`)."""
+    (:func:`app.player.app_renderer.default_camera_choice`)."""
     private = Path(os.environ.get("ANDROID_PRIVATE") or os.path.join(os.path.expanduser("~"), ".storybeam"))
     android = "ANDROID_PRIVATE" in os.environ or "ANDROID_ARGUMENT" in os.environ  # set by python-for-android
     camera = saved_camera_choice(private / "profile.db", default_camera_choice(private, android))

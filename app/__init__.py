@@ -7,7 +7,7 @@ it; ``docs/design/architecture.md`` draws it):
   and packages (no Kivy, no GL);
 * :mod:`app.services` -- the motion catalogue, thumbnails and calibration wizard the
   screens call (no Kivy);
-* :mod:`app.scene` -- the one table-to-scene mapping, the animator, the stage, the render
+* :mod:`app.player` -- the one table-to-scene mapping, the animator, the stage, the render
   thread and video export;
 * :mod:`app.ui` -- the Kivy screens and widgets only;
 * :mod:`app.commands` -- one module per ``storybeam`` command (found by :mod:`app.cli`),

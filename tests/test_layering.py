@@ -100,17 +100,17 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "app.progress": (),
     "app.story": (*APP_BASE, *RETRIEVAL_PRODUCT),
     "app.services": (*APP_BASE, "app.story", "ar", "ar.body", *RETRIEVAL_PRODUCT),
-    "app.scene": (*APP_BASE, "app.story", *AR_ALL, *RETRIEVAL_PRODUCT),
+    "app.player": (*APP_BASE, "app.story", *AR_ALL, *RETRIEVAL_PRODUCT),
     # app.ui draws ar.scene descriptions with Kivy GL (app.ui.gl); never ar.render (pyrender)
-    "app.ui": (*APP_BASE, "app.story", "app.services", "app.scene", "ar.scene", *RETRIEVAL_PRODUCT,
+    "app.ui": (*APP_BASE, "app.story", "app.services", "app.player", "ar.scene", *RETRIEVAL_PRODUCT,
                "ar",  # ar core: the Kivy camera is an ar.camera_sources.CameraSource (issue 13)
                "ar.body"),  # "Act it out": the body skeleton drawn over the camera preview (issue 18)
     # the lab (lab/): the research experiment on retrieval only; the harnesses on anything of
     # the product, never the commands (bench never the UI)
     "lab": (),
     "lab.experiment": (*RETRIEVAL_ALL,),
-    "lab.bench": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene", "lab.experiment"),
-    "lab.stress": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.scene", "app.ui"),
+    "lab.bench": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.player", "lab.experiment"),
+    "lab.stress": (*APP_BASE, *RETRIEVAL_ALL, *AR_ALL, "app.story", "app.services", "app.player", "app.ui"),
     "app.commands": tuple(u for u in UNITS if u not in ("app", "app.cli", "app.commands")),
     "app.cli": ("app.commands", ERRORS),
 }
@@ -129,7 +129,7 @@ FORBIDDEN_THIRD_PARTY: dict[str, tuple[str, ...]] = {
     "app.progress": ("kivy", "pyrender", "OpenGL", "trimesh", "cv2"),
     "app.story": _NO_UI,
     "app.services": ("kivy", "pyrender", "OpenGL", "trimesh"),
-    "app.scene": ("kivy",),
+    "app.player": ("kivy",),
 }
 
 #: third-party module -> the only modules that may import it.
@@ -168,7 +168,7 @@ RUNTIME_FORBIDDEN: dict[str, tuple[tuple[str, ...], tuple[str, ...], tuple[str, 
     "ar.scene": (("ar.scene",), (), ("kivy", "app", "pyrender", "OpenGL", "trimesh")),
     "app.story": (("app.story",), (), ("kivy", "pyrender", "OpenGL", "trimesh", "cv2", "ar")),
     "app.services": (("app.services",), (), ("kivy", "pyrender", "OpenGL", "trimesh")),
-    "app.scene": (("app.scene",), (), ("kivy",)),
+    "app.player": (("app.player",), (), ("kivy",)),
 }
 
 MARKERS = ("optional", "deferred")

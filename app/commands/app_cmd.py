@@ -94,7 +94,7 @@ def _camera_choice(option: str | None, db: Path) -> str:
     ``--camera`` is checked here (a missing or unreadable file is one clear error before any
     window opens); a saved choice that no longer opens falls back to device 0 with a warning.
     ``kivy`` / ``kivy:N`` (the Kivy camera) is opened by the app on its main thread."""
-    from app.scene.app_renderer import DEFAULT_CAMERA, check_camera_choice, saved_camera_choice  # deferred: app start-up only
+    from app.player.app_renderer import DEFAULT_CAMERA, check_camera_choice, saved_camera_choice  # deferred: app start-up only
 
     if option is not None:
         return check_camera_choice(option)  # raises CameraSourceError naming the problem
@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
             if not store.has_story(args.story):
                 raise StorageError(f"{db}: no story with id '{args.story}'")
     camera = _camera_choice(args.camera, db)
-    from app.scene.app_renderer import check_camera_choice  # deferred: app start-up only
+    from app.player.app_renderer import check_camera_choice  # deferred: app start-up only
     act_camera = check_camera_choice(args.act_camera) if args.act_camera is not None else None  # before any window
     screenshot = Path(args.screenshot) if args.screenshot else None
     demo = args.demo_story or (screenshot is not None and not args.story)
@@ -189,7 +189,7 @@ def run(args: argparse.Namespace) -> int:
         raise StoryBeamError("--renderer pyrender: pyrender is not installed (use --renderer kivy-gl)")
     factory = None
     if use_3d:  # the Play preview and the projector stage, on one render thread
-        from app.scene.app_renderer import app_renderer_factory  # deferred: the render thread's modules load on its first job
+        from app.player.app_renderer import app_renderer_factory  # deferred: the render thread's modules load on its first job
         factory = app_renderer_factory(db.parent, camera=camera, renderer=args.renderer)
     app = _LaunchedApp(db, lang=args.lang, story_id=args.story, demo=demo, start_screen=screen,
                        renderer_factory=factory, act_camera=act_camera)

@@ -28,7 +28,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     # deferred: the scene layer (pyrender, OpenGL, the motion library) loads only for this command
-    from app.scene.demo_pipeline import DemoConfig, run_demo
+    from app.player.demo_pipeline import DemoConfig, run_demo
 
     w, h = parse_size(args.size)
     out = args.out_dir

@@ -4,7 +4,7 @@
                                         [--progress-lines]
 
 The story file is a ``Story.to_dict`` JSON document (what the app exports and what
-:func:`app.scene.export_in_subprocess` hands this command). The 3-D views render the
+:func:`app.player.export_in_subprocess` hands this command). The 3-D views render the
 characters through pyrender; where that cannot run, the video is the top-down 2-D
 animation and the result's note says why. The app runs this command in a child process
 with ``--progress-lines``: it then prints ``progress DONE TOTAL`` after every frame
@@ -20,7 +20,7 @@ import json
 
 from app.progress import progress_bar
 
-#: The views of app.scene.video_export.VIEWS, repeated here so that `storybeam --help`
+#: The views of app.player.video_export.VIEWS, repeated here so that `storybeam --help`
 #: does not load the scene layer (tests/app/test_cli.py keeps the two equal).
 VIEWS = ("camera", "overhead", "projector", "2d")
 
@@ -42,8 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Read the story (a clear error naming the file if it is not a story), render every
-    frame with :func:`app.scene.export_story_mp4`, report progress, print the result line."""
-    from app.scene import export_story_mp4, frame_count, read_story  # deferred: the scene layer (numpy, imageio, 3-D) only for this command
+    frame with :func:`app.player.export_story_mp4`, report progress, print the result line."""
+    from app.player import export_story_mp4, frame_count, read_story  # deferred: the scene layer (numpy, imageio, 3-D) only for this command
 
     story = read_story(args.story_json)
     total = frame_count(story, args.fps)

@@ -8,7 +8,7 @@ AUDIO (WAV or OGG) is checked exactly like a file a child imports in the app
 (:func:`app.story.read_audio`: size, format, rate, length, damage, silence -- a refused
 file is named with the reason and nothing is written), stored as the demo story's first
 scene's narration in a temporary asset folder, and muxed into the video
-(:func:`app.scene.export_story_mp4`): the audio stream lasts exactly as long as the video.
+(:func:`app.player.export_story_mp4`): the audio stream lasts exactly as long as the video.
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check AUDIO, attach it to the demo story's first scene, export, print the result."""
-    from app.scene import export_story_mp4, frame_count  # deferred: the scene layer only for this command
+    from app.player import export_story_mp4, frame_count  # deferred: the scene layer only for this command
     from app.story import Narration, demo_story, encode_wav, read_audio  # deferred: the story layer only here
     from app.story.narration import asset_name  # deferred: the story layer only for this command
 

@@ -38,7 +38,7 @@ def parse_size(text: str) -> tuple[int, int]:
 
 def run(args: argparse.Namespace) -> int:
     # deferred: the scene layer (pyrender, OpenGL, the motion library) loads only for this command
-    from app.scene.demo_pipeline import DemoConfig, run_demo
+    from app.player.demo_pipeline import DemoConfig, run_demo
 
     if not args.demo:
         raise StoryBeamError("only the bundled demo scene can be rendered so far: pass --demo")

@@ -86,7 +86,7 @@ def act_library(app) -> ActLibrary:
 def open_act_camera(app) -> CameraSource:
     """On Kivy's main thread: the camera named by ``app.act_camera`` (see the module doc).
     Raises :class:`ar.camera_sources.CameraSourceError` naming the camera and the problem."""
-    from app.scene.app_renderer import kivy_camera_index  # deferred: the camera choice, only when filming
+    from app.player.app_renderer import kivy_camera_index  # deferred: the camera choice, only when filming
     from ar.camera_sources import open_camera_source  # deferred: OpenCV, only when filming
 
     choice = getattr(app, "act_camera", None) or DESKTOP_ACT_CAMERA

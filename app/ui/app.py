@@ -2,7 +2,7 @@
 
 Import this module only after the Kivy environment is set (see
 :func:`app.ui.env.prepare_kivy_env`): Kivy reads its settings at import time.
-It imports the story, the services and the light part of :mod:`app.scene` only: the
+It imports the story, the services and the light part of :mod:`app.player` only: the
 3-D renderers are loaded by the render thread (``renderer_factory``), when there is one.
 """
 from __future__ import annotations
@@ -22,8 +22,8 @@ from kivy.uix.screenmanager import NoTransition, ScreenManager
 from kivy.utils import platform
 
 from app.paths import FONT_PATH
-from app.scene import RenderThread, StageJob, app_exporter, available
-from app.scene.app_renderer import has_calibration, kivy_camera_index
+from app.player import RenderThread, StageJob, app_exporter, available
+from app.player.app_renderer import has_calibration, kivy_camera_index
 from app.services import MotionCatalog, ThumbnailCache
 from app.story import ProfileStore, Scene, StorageError, Story, StoryEditor, demo_story, prune_narrations
 from app.ui.editor import EditorScreen
@@ -257,13 +257,13 @@ class StoryBeamApp(App):
         return self._thumbnails
 
     def stage_available(self) -> bool:
-        """True when the render thread can draw the projector stage (:mod:`app.scene.stage`):
+        """True when the render thread can draw the projector stage (:mod:`app.player.stage`):
         its renderer factory says so (``supports_stage``) and it has not failed."""
         return (self.renderer is not None and self.renderer.alive
                 and bool(getattr(self.renderer_factory, "supports_stage", False)))
 
     def request_stage_frame(self, scene, t: float, view: str, callback) -> None:
-        """Ask the render thread for a projector-stage frame (:class:`app.scene.stage.StageFrame`);
+        """Ask the render thread for a projector-stage frame (:class:`app.player.stage.StageFrame`);
         the rig's Kivy camera, when open, goes with it (the stage's live rig reads it)."""
         if self.renderer is not None and self.renderer.alive:
             self.renderer.request(StageJob(Scene.from_dict(scene.to_dict()), view, self.rig_camera), t, callback)

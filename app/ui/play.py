@@ -1,14 +1,14 @@
 """Play: preview the scene or the whole story with a scrubber, and the projector output.
 
 The preview is the top-down animation of each character along its path. When a 3-D
-renderer is available, frames come from :class:`app.scene.render_thread.RenderThread`: with
+renderer is available, frames come from :class:`app.player.render_thread.RenderThread`: with
 Kivy GL (the default, every device) the thread answers scene descriptions
 (:class:`ar.scene.SceneDescription`: retargeting, path following, tracking run there) and
 this module draws them on the UI thread with :class:`app.ui.gl.KivyGLRenderer`, whose
 offscreen texture is shown; with pyrender (desktop) the thread answers images (pyrender
 must render on its own long-lived thread; two GL contexts on the Kivy thread crash).
 
-The projector screen shows :mod:`app.scene.stage`: the scene's 3-D characters rendered from the
+The projector screen shows :mod:`app.player.stage`: the scene's 3-D characters rendered from the
 projector's viewpoint through the tracked rig (a live camera with the profile's
 calibration files, else the synthetic rig), with the tracking state in a corner;
 *Preview* switches to the camera view (the light on the table, what the audience sees).
@@ -350,7 +350,7 @@ class ProjectorScreen(_PlayerScreen):
         app.request_stage_frame(scene, local_t, self.stage_view, self._show_stage)
 
     def _show_stage(self, frame) -> None:
-        """A :class:`app.scene.stage.StageFrame` from the render thread (on the UI thread)."""
+        """A :class:`app.player.stage.StageFrame` from the render thread (on the UI thread)."""
         if self.manager is None or self.manager.current != self.name:
             return
         app = App.get_running_app()

@@ -23,7 +23,7 @@ from kivy.uix.scrollview import ScrollView
 from kivy.uix.textinput import TextInput
 from kivy.uix.widget import Widget
 
-from app.scene.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice
+from app.player.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice
 from app.services import CalibrationWizard, act_it_out_allowed, set_act_it_out_allowed
 from app.story import RECOVERY_CODE_DIGITS, StorageError, valid_pin
 from app.ui.import_picker import ImportPicker
@@ -460,7 +460,7 @@ class TeacherScreen(Screen):
         self.import_picker.open()
 
     def export_videos(self) -> None:
-        """Write one MP4 per story (:func:`app.scene.video_export.app_exporter`: the 3-D
+        """Write one MP4 per story (:func:`app.player.video_export.app_exporter`: the 3-D
         characters as the audience sees them, in a child process; 2-D when 3-D rendering
         is unavailable, which the status line and the log say) on a worker thread, with
         per-story frame progress."""

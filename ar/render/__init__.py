@@ -13,7 +13,7 @@ This is the one place pyrender is imported from: importing ``ar.render`` (or any
 in it) first selects PyOpenGL's headless EGL platform, below, unless the environment
 already chose one -- so every user of pyrender goes through this package. Needs
 pyrender, trimesh and OpenGL, none of which exist on Android; the app imports this
-package only where 3-D is wanted (see :mod:`app.scene`).
+package only where 3-D is wanted (see :mod:`app.player`).
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ The path is a 2-D polyline on the table in metres. StoryBeam's motion world is Y
 the table at y = 0; it is the AR *scene frame* (``ar/render/projector_view.py``): origin
 at the board centre, X = board x, Z = board y (board z points into the table). The path
 arrives already in scene ``(X, Z)``: the app lays a story's table paths into the scene
-with its one mapping, :func:`app.scene.placement.table_to_scene`.
+with its one mapping, :func:`app.player.placement.table_to_scene`.
 
 How a clip is laid on the path (all IK-free):
 

@@ -68,7 +68,7 @@ def test_a_command_module_without_register_is_an_error_naming_it(tmp_path, monke
 
 
 def test_export_views_match_the_scene_layer():
-    from app.scene.video_export import VIEWS
+    from app.player.video_export import VIEWS
 
     assert export_cmd.VIEWS == VIEWS
 
@@ -81,7 +81,7 @@ def _tiny_story() -> Story:
 
 
 def test_export_writes_an_mp4_and_a_result_line(tmp_path, capsys):
-    from app.scene import available, frame_count
+    from app.player import available, frame_count
 
     if available():
         pytest.skip(f"no MP4 export here: {available()}")

@@ -244,7 +244,7 @@ def test_sigkill_during_calibration_saves_never_leaves_an_empty_or_partial_file(
 
 
 def test_video_export_is_fsynced_before_it_is_renamed_into_place(tmp_path, syscalls):
-    from app.scene.video_export import available, export_story_mp4  # deferred: imageio only for this test
+    from app.player.video_export import available, export_story_mp4  # deferred: imageio only for this test
 
     if available():
         pytest.skip(f"no video encoder: {available()}")

@@ -66,7 +66,7 @@ def test_story_mp4_shows_3d_characters_walking_scene_after_scene(tmp_path):
     pytest.importorskip("pyrender")
     import imageio.v2 as imageio
 
-    from app.scene.video_export import available, export_in_subprocess, frame_count
+    from app.player.video_export import available, export_in_subprocess, frame_count
     if available():
         pytest.skip(available())
     story, fps = _two_scene_story(), 8.0
@@ -195,7 +195,7 @@ def test_stage_keeps_the_show_going_when_a_live_rig_fails():
     renderer carries on with the synthetic rig instead of killing the render thread."""
     pytest.importorskip("pyrender")
     from app.story.demo_story import demo_story
-    from app.scene import AppRenderer, StageJob
+    from app.player import AppRenderer, StageJob
     from ar.errors import RigError
     from ar.rig import SyntheticRig
     from ar.boards import DEFAULT_BOARD_SPEC, Board
@@ -220,7 +220,7 @@ def test_stage_keeps_the_show_going_when_a_live_rig_fails():
 def test_export_falls_back_to_2d_and_says_why_when_3d_cannot_render(tmp_path, monkeypatch):
     import imageio.v2 as imageio
 
-    from app.scene import video_export
+    from app.player import video_export
     if video_export.available():
         pytest.skip(video_export.available())
 
@@ -238,7 +238,7 @@ def test_export_falls_back_to_2d_and_says_why_when_3d_cannot_render(tmp_path, mo
 
 @pytest.mark.slow  # a video export in a child process
 def test_export_child_process_failure_is_one_plain_error(tmp_path):
-    from app.scene.video_export import VideoExportError, available, export_in_subprocess
+    from app.player.video_export import VideoExportError, available, export_in_subprocess
     if available():
         pytest.skip(available())
     (tmp_path / "a_file").write_text("x")

@@ -203,7 +203,7 @@ def test_kivy_gl_stage_matches_the_pyrender_stage(kivy_images):
     """``app.ui.gl.stage.kivy_gl_stage_renderer`` -- the stage behind ``(scene, t, view) ->
     RGB`` -- gives the pyrender stage's frames: the same synthetic rig (deterministic), the
     same tracking, the light drawn by the other renderer."""
-    from app.scene.stage import StageRenderer  # deferred: loads the stage (OpenCV, animation)
+    from app.player.stage import StageRenderer  # deferred: loads the stage (OpenCV, animation)
     from app.story.demo_story import demo_story  # deferred: as above
 
     kivy = _STAGE["kivy"]

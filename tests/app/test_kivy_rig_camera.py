@@ -4,7 +4,7 @@ A camera choice ``kivy`` / ``kivy:N`` (``storybeam app --camera kivy``, the teac
 setting, Android's default once the rig is calibrated) makes the app open
 :class:`app.ui.kivy_camera.KivyCameraSource` on Kivy's main thread when the projector
 screen opens, hand it to the stage's live rig on the render thread (in each
-:class:`app.scene.app_renderer.StageJob`), and close it when the screen is left.
+:class:`app.player.app_renderer.StageJob`), and close it when the screen is left.
 
 The app test runs the whole app offscreen in a fresh interpreter with a stand-in Kivy
 camera that delivers a recorded handheld rig session (:func:`ar.synthetic.record_rig_session`,
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from app.scene.app_renderer import (DEFAULT_CAMERA, KIVY_CAMERA, app_renderer_factory, check_camera_choice,
+from app.player.app_renderer import (DEFAULT_CAMERA, KIVY_CAMERA, app_renderer_factory, check_camera_choice,
                                     default_camera_choice, has_calibration, kivy_camera_index, saved_camera_choice)
 from ar.camera_sources import CameraSourceError
 
@@ -57,7 +57,7 @@ def test_android_defaults_to_the_kivy_camera_once_calibrated(tmp_path):
 
 
 def test_the_teachers_setting_wins_over_the_default(tmp_path, capsys):
-    from app.scene.app_renderer import CAMERA_SETTING
+    from app.player.app_renderer import CAMERA_SETTING
     from app.story.storage import ProfileStore
 
     db = tmp_path / "profile.db"
@@ -81,7 +81,7 @@ import numpy as np
 from kivy.clock import Clock
 from ar.boards import DEFAULT_BOARD_SPEC, Board
 from ar.synthetic import SessionConfig, record_rig_session
-from app.scene.app_renderer import app_renderer_factory
+from app.player.app_renderer import app_renderer_factory
 from app.ui.app import StoryBeamApp
 
 profile = Path(sys.argv[1])
@@ -220,7 +220,7 @@ def test_the_android_entry_point_picks_the_kivy_camera_once_calibrated(tmp_path,
     if calibrated:
         _calibrate(private)
     if saved is not None:
-        from app.scene.app_renderer import CAMERA_SETTING
+        from app.player.app_renderer import CAMERA_SETTING
         from app.story.storage import ProfileStore
 
         with ProfileStore(private / "profile.db") as store:
@@ -242,7 +242,7 @@ from pathlib import Path
 from app.ui.env import prepare_kivy_env
 prepare_kivy_env(headless=True, width=640, height=400)
 from kivy.clock import Clock
-from app.scene.app_renderer import app_renderer_factory
+from app.player.app_renderer import app_renderer_factory
 from app.ui.app import StoryBeamApp
 
 profile = Path(sys.argv[1])

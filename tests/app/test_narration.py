@@ -365,7 +365,7 @@ def test_sigkill_while_saving_narrations_never_loses_the_story(tmp_path):
 
 # -- the MP4 sound track and the command ---------------------------------------------------------
 def _ffmpeg() -> str:
-    from app.scene import available
+    from app.player import available
     why = available()
     if why:
         pytest.skip(why)
@@ -389,7 +389,7 @@ def _rms(x: np.ndarray) -> float:
 
 
 def test_export_muxes_each_narration_at_its_scene_start(tmp_path):
-    from app.scene import export_story_mp4, frame_count, story_audio
+    from app.player import export_story_mp4, frame_count, story_audio
 
     _ffmpeg()
     story = demo_story()
@@ -418,7 +418,7 @@ def test_export_muxes_each_narration_at_its_scene_start(tmp_path):
 
 
 def test_a_missing_narration_leaves_its_scene_silent_and_says_so(tmp_path):
-    from app.scene import export_story_mp4
+    from app.player import export_story_mp4
 
     _ffmpeg()
     story = demo_story()
@@ -468,7 +468,7 @@ def test_export_command_takes_the_narration_folder(tmp_path, capsys):
 def test_decoded_audio_helper_sees_no_audio_in_a_silent_export(tmp_path):
     """The check above could pass vacuously if the helper always found sound: a story
     without narration has no audio stream at all."""
-    from app.scene import export_story_mp4
+    from app.player import export_story_mp4
 
     _ffmpeg()
     out = export_story_mp4(demo_story(), tmp_path / "v.mp4", 5.0, view="2d", narration_dir=tmp_path).path
@@ -589,7 +589,7 @@ def test_mutated_audio_files_are_refused_with_a_message_never_an_exception():
 
 def test_the_apps_exporter_finds_each_storys_voices(tmp_path):
     """What the teacher screen calls (app_exporter with the profile's asset folders)."""
-    from app.scene import app_exporter
+    from app.player import app_exporter
 
     _ffmpeg()
     store = ProfileStore(tmp_path / "p.db")

@@ -10,7 +10,7 @@ import pytest
 from PIL import Image, ImageDraw, ImageFont
 
 from app.story.gestures import find_spins, hop_time, thin
-from app.scene.render_thread import RenderThread
+from app.player.render_thread import RenderThread
 from app.services.catalog import MotionCatalog
 from app.ui.strings import LANGUAGES, STRINGS, tr
 
@@ -137,7 +137,7 @@ def test_calibration_wizard_runs_the_ar_chain_on_synthetic_views(tmp_path):
 
 def test_story_video_export_writes_every_frame(tmp_path):
     from app.story.demo_story import demo_story
-    from app.scene.video_export import VideoExportError, available, export_story_mp4
+    from app.player.video_export import VideoExportError, available, export_story_mp4
     if available():
         pytest.skip(available())
     import imageio.v2 as imageio

@@ -1,10 +1,10 @@
-"""The one table -> scene mapping (app.scene.placement) and its two placements."""
+"""The one table -> scene mapping (app.player.placement) and its two placements."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from app.scene import PREVIEW_PLACEMENT, STAGE_PLACEMENT, STAGE_SCALE, scene_to_table, table_to_scene
+from app.player import PREVIEW_PLACEMENT, STAGE_PLACEMENT, STAGE_SCALE, scene_to_table, table_to_scene
 from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M
 
 CORNERS = np.array([[0.0, 0.0], [TABLE_WIDTH_M, 0.0], [TABLE_WIDTH_M, TABLE_DEPTH_M], [0.0, TABLE_DEPTH_M]])
@@ -42,10 +42,10 @@ def test_the_stage_is_a_miniature_on_the_board_with_the_childs_edge_nearest_the_
 
 @pytest.mark.parametrize("placement", [PREVIEW_PLACEMENT, STAGE_PLACEMENT], ids=lambda p: p.name)
 def test_the_animator_walks_the_path_where_the_mapping_puts_it(placement):
-    """The preview and the stage both animate through app.scene.animator, which lays the
+    """The preview and the stage both animate through app.player.animator, which lays the
     child's table path into the scene with this mapping: the walking root follows it."""
     pytest.importorskip("pyrender")
-    from app.scene.animator import SceneAnimator  # needs ar.render (pyrender) at load
+    from app.player.animator import SceneAnimator  # needs ar.render (pyrender) at load
     from app.story import Character, MotionChoice
     from retrieval.animation import path_error_cm
 

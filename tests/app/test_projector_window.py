@@ -144,7 +144,7 @@ from pathlib import Path
 from app.ui.env import prepare_kivy_env
 prepare_kivy_env(headless=True, width=640, height=400)
 from kivy.clock import Clock
-from app.scene.app_renderer import app_renderer_factory
+from app.player.app_renderer import app_renderer_factory
 from app.ui.app import StoryBeamApp
 
 profile = Path(sys.argv[1])

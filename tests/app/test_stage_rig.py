@@ -1,6 +1,6 @@
 """The projector stage through the synthetic rig as the app drives it: the stage answers
 what to draw (``draw=None``), the caller draws it and hands the light back later
-(:attr:`app.scene.stage.StageFrame.light_sink`), and the rig films that light on the board.
+(:attr:`app.player.stage.StageFrame.light_sink`), and the rig films that light on the board.
 
 The demo story's first scene puts both characters' light next to the board's corners. Before
 issue 30 the rig read most of these frames as *holding* (the light moved the corners and the
@@ -22,7 +22,7 @@ LIBRARY = Path(__file__).resolve().parents[2] / "assets" / "motions"
 @pytest.mark.parametrize("lag", [1, 3])
 def test_the_stage_keeps_tracking_with_its_characters_light_on_the_board(lag):
     pytest.importorskip("pyrender")
-    from app.scene.stage import StageRenderer
+    from app.player.stage import StageRenderer
     from app.story.demo_story import demo_story
     from ar.render import PyrenderSceneRenderer
     from ar.rig import SyntheticRig

@@ -177,7 +177,7 @@ def test_the_app_opens_a_recording_as_its_live_rig(session, board, tmp_path):
         assert rig.stats().detected >= 5 and state.state in (TRACKING, HOLDING)
         assert state.T_proj_from_board is not None  # the projector's pose, through projector.json
         # the projector stage draws the demo story's characters from the live rig's newest pose
-        from app.scene.stage import StageRenderer
+        from app.player.stage import StageRenderer
         from app.story.demo_story import demo_story
 
         stage = StageRenderer(rig=rig)

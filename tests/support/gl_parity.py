@@ -48,7 +48,7 @@ SIZE = (640, 480)
 VIEWS = ("projector", "camera", "overhead")
 CLASSES = ("walk", "run", "jump", "dance", "kick")
 FRAMES_PER_CLIP = 4
-STAGE_HEIGHT_M = 0.10  # as app.scene.stage.STAGE_CHARACTER_HEIGHT_M
+STAGE_HEIGHT_M = 0.10  # as app.player.stage.STAGE_CHARACTER_HEIGHT_M
 OVERHEAD_HEIGHT_M = 0.12
 STAGE_FRAMES = 4  # frames of the demo story's first scene through kivy_gl_stage_renderer
 

@@ -59,7 +59,7 @@ UNITS = (
     "app.paths",
     "app.progress",
     "app.story",
-    "app.scene",
+    "app.player",
     "app.services",
     "app.ui",
     "app.commands",

@@ -111,7 +111,7 @@ class DriverApp(StoryBeamApp):
         if SCENARIO == "teacher" and self.video_exporter is not None:
             # the real 3-D export (child process, camera view) at 2 frames per second: the
             # UI wiring is what this scenario checks; tests/test_app_integration.py checks the video
-            from app.scene.video_export import app_exporter
+            from app.player.video_export import app_exporter
             self.video_exporter = app_exporter("camera", fps=2.0)
         self._steps = iter(SCENARIOS[SCENARIO](self))
         self._flips = 0
@@ -241,7 +241,7 @@ if __name__ == "__main__":
             zf.writestr("story.json", "{}")
     factory = None
     if SCENARIO in ("play3d", "projector3d", *TABLET_RENDERED, *ACT_RENDERED):
-        from app.scene import app_renderer_factory
+        from app.player import app_renderer_factory
         factory = app_renderer_factory(DB.parent)
     catalog = MotionCatalog(Path(os.environ["STORYBEAM_TEST_MOTIONS"]), build_index=False) \
         if os.environ.get("STORYBEAM_TEST_MOTIONS") else MotionCatalog(build_index=SCENARIO in TABLET_RENDERED)

@@ -2,7 +2,7 @@
 view) -> (H, W, 3) uint8``, for benchmarks and headless checks (the app itself draws the
 stage's descriptions in :mod:`app.ui.play`).
 
-:func:`kivy_gl_stage_renderer` is :class:`app.scene.stage.StageRenderer` (tracking,
+:func:`kivy_gl_stage_renderer` is :class:`app.player.stage.StageRenderer` (tracking,
 animation, the scene description) with :class:`app.ui.gl.KivyGLRenderer` as its ``draw``:
 the same frames as the pyrender stage, drawn with OpenGL ES 2. Call it on Kivy's main
 thread after the window exists (:func:`app.ui.env.prepare_kivy_env`, then
@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from app.scene.stage import StageRenderer
+from app.player.stage import StageRenderer
 from app.story import Scene
 from app.ui.gl.renderer import PROJECTOR_SUPERSAMPLE, KivyGLRenderer
 
@@ -24,7 +24,7 @@ StageCall = Callable[[Scene, float, str], np.ndarray]
 
 def kivy_gl_stage_renderer(rig=None, supersample: int | None = None, **stage_kwargs) -> StageCall:
     """``render(scene, t, view="projector") -> RGB``; ``render.stage`` is the
-    :class:`StageRenderer` (its last :class:`app.scene.stage.StageFrame` is
+    :class:`StageRenderer` (its last :class:`app.player.stage.StageFrame` is
     ``render.last_frame``), ``render.gl`` the :class:`KivyGLRenderer`, ``render.name`` is
     ``"kivy-gl"``. ``supersample``: default :data:`PROJECTOR_SUPERSAMPLE`, as the projector
     screen draws. ``stage_kwargs`` go to :class:`StageRenderer` (``rig``, ``fps``, ...)."""

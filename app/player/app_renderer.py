@@ -1,9 +1,9 @@
 """The one renderer behind the app's render thread: the Play preview and the projector stage.
 
-The app (:mod:`app.ui.app`) hands :class:`app.scene.render_thread.RenderThread` a
+The app (:mod:`app.ui.app`) hands :class:`app.player.render_thread.RenderThread` a
 *factory*; the thread calls it once, on itself, and then calls the renderer with each
-job: a bare :class:`app.story.Scene` (the Play preview, :mod:`app.scene.preview`) or a
-:class:`StageJob` (the projector stage, :mod:`app.scene.stage`).
+job: a bare :class:`app.story.Scene` (the Play preview, :mod:`app.player.preview`) or a
+:class:`StageJob` (the projector stage, :mod:`app.player.stage`).
 
 This module stays light (no pyrender, no OpenCV at import): the app imports it at
 start-up, and the 3-D modules are loaded by the render thread on its first job.
@@ -120,7 +120,7 @@ class AppRenderer:
         camera source (a device number, a video file, a folder of images); ``draw``:
         ``"pyrender"`` draws here and answers images, None answers what to draw -- an
         :class:`ar.scene.SceneDescription` for the Play preview, a
-        :class:`app.scene.stage.StageFrame` carrying one for the stage -- and the app
+        :class:`app.player.stage.StageFrame` carrying one for the stage -- and the app
         draws it with Kivy GL on its UI thread (:mod:`app.ui.gl`; no pyrender needed)."""
         self.profile_dir = profile_dir
         self.rig = rig
@@ -134,8 +134,8 @@ class AppRenderer:
         # The 3-D modules (retargeting, OpenCV; pyrender only when draw="pyrender", on the
         # first frame) take a while to import: loaded here, on the render thread's first
         # job, so the app's first frame never waits for them.
-        from app.scene.preview import ScenePreviewRenderer  # deferred: to the render thread (retargeting, OpenCV)
-        from app.scene.stage import StageError, StageRenderer  # deferred: as above
+        from app.player.preview import ScenePreviewRenderer  # deferred: to the render thread (retargeting, OpenCV)
+        from app.player.stage import StageError, StageRenderer  # deferred: as above
         from ar.rig import SyntheticRig  # deferred: as above (OpenCV)
 
         if isinstance(job, StageJob):

@@ -4,10 +4,10 @@ with their chosen motions, scene after scene.
 Views (``view``):
 
 * ``camera`` (default) -- what an audience sees on the table: the projector stage
-  (:class:`app.scene.stage.StageRenderer`) through the synthetic rig, its camera frame with
+  (:class:`app.player.stage.StageRenderer`) through the synthetic rig, its camera frame with
   the projected characters on the board;
 * ``overhead`` -- the Play preview's view of the whole table from the child's side
-  (:class:`app.scene.preview.ScenePreviewRenderer`);
+  (:class:`app.player.preview.ScenePreviewRenderer`);
 * ``projector`` -- the projector's own image (black = no light).
 
 3-D frames need OpenGL (pyrender, EGL). The app runs the export in a child process
@@ -200,7 +200,7 @@ def story_frames_3d(story: Story, fps: float = 15.0, view: str = "camera") -> It
 
     Creates the GL renderer on the calling thread and closes it at the end."""
     if view == "overhead":
-        from app.scene.preview import ScenePreviewRenderer  # optional: pyrender (the caller falls back to 2-D)
+        from app.player.preview import ScenePreviewRenderer  # optional: pyrender (the caller falls back to 2-D)
         renderer = ScenePreviewRenderer(fps=30.0)
         try:
             for scene in story.scenes:
@@ -209,7 +209,7 @@ def story_frames_3d(story: Story, fps: float = 15.0, view: str = "camera") -> It
         finally:
             renderer.close()
         return
-    from app.scene.stage import StageRenderer  # optional: pyrender (the caller falls back to 2-D)
+    from app.player.stage import StageRenderer  # optional: pyrender (the caller falls back to 2-D)
     from ar.rig import SyntheticRig  # optional: as above (OpenCV), with the stage
 
     # the synthetic hand moves at the video's frame rate; the rig is never a live camera here

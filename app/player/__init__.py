@@ -1,15 +1,17 @@
-"""The story as moving pictures: the table laid in the 3-D scene, the Play preview, the
-projector stage, the MP4 export, and the thread they render on.
+"""The story player: the story as moving pictures -- the table laid in the 3-D scene, the
+Play preview, the projector stage, the MP4 export, and the thread they render on. (What
+is drawn, for any renderer, is :mod:`ar.scene`; this package decides what a story shows
+and when.)
 
 Light modules (numpy and the story only; imported here, safe on Android and at start-up):
 
-* :mod:`app.scene.placement` -- the one table -> scene mapping (``table_to_scene``) and
+* :mod:`app.player.placement` -- the one table -> scene mapping (``table_to_scene``) and
   its two placements: the full-size preview table and the miniature on the board;
-* :mod:`app.scene.render_thread` -- ``RenderThread``: one long-lived thread owns the
+* :mod:`app.player.render_thread` -- ``RenderThread``: one long-lived thread owns the
   renderer and its GL context; the newest request wins;
-* :mod:`app.scene.app_renderer` -- ``AppRenderer``: the render thread's one renderer,
+* :mod:`app.player.app_renderer` -- ``AppRenderer``: the render thread's one renderer,
   serving the Play preview (a ``Scene``) and the stage (a ``StageJob``);
-* :mod:`app.scene.video_export` -- the teacher's MP4 export (3-D in a child process, or
+* :mod:`app.player.video_export` -- the teacher's MP4 export (3-D in a child process, or
   the top-down 2-D fallback).
 
 3-D modules (retargeting, OpenCV and :mod:`ar.scene` at load -- no pyrender: the preview
@@ -18,17 +20,17 @@ in the app and pyrender, imported on first use, draws for the export and tests; 
 pipeline imports :mod:`ar.render`. *Not* imported here -- import them by module path
 where 3-D is wanted):
 
-* :mod:`app.scene.animator` -- ``SceneAnimator``: a story character's clip retargeted and
+* :mod:`app.player.animator` -- ``SceneAnimator``: a story character's clip retargeted and
   laid on its path (shared by the preview, the stage and the export);
-* :mod:`app.scene.preview` -- ``ScenePreviewRenderer``: the Play preview from above the table;
-* :mod:`app.scene.stage` -- ``StageRenderer``: the story through the tracked projector rig;
-* :mod:`app.scene.demo_pipeline` -- ``storybeam demo`` / ``render --demo``: retrieve,
+* :mod:`app.player.preview` -- ``ScenePreviewRenderer``: the Play preview from above the table;
+* :mod:`app.player.stage` -- ``StageRenderer``: the story through the tracked projector rig;
+* :mod:`app.player.demo_pipeline` -- ``storybeam demo`` / ``render --demo``: retrieve,
   animate and render through the synthetic hand-held rig.
 """
 from __future__ import annotations
 
-from app.scene.app_renderer import AppRenderer, StageJob, app_renderer_factory
-from app.scene.placement import (
+from app.player.app_renderer import AppRenderer, StageJob, app_renderer_factory
+from app.player.placement import (
     PREVIEW_PLACEMENT,
     STAGE_PLACEMENT,
     STAGE_SCALE,
@@ -37,11 +39,11 @@ from app.scene.placement import (
     scene_to_table,
     table_to_scene,
 )
-from app.scene.render_thread import RenderThread
-from app.scene.video_export import (
+from app.player.render_thread import RenderThread
+from app.player.video_export import (
     VIEWS as EXPORT_VIEWS,
 )
-from app.scene.video_export import (
+from app.player.video_export import (
     AUDIO_RATE,
     ExportResult,
     VideoExportError,

@@ -1,12 +1,12 @@
 """A story character as a 3-D motion: its chosen clip, retargeted onto its design and laid
 along its sketched path.
 
-Shared by the Play preview (:mod:`app.scene.preview`), the projector stage
-(:mod:`app.scene.stage`) and the MP4 export, so all three show the same animation. Per
+Shared by the Play preview (:mod:`app.player.preview`), the projector stage
+(:mod:`app.player.stage`) and the MP4 export, so all three show the same animation. Per
 character: the chosen clip (or the first clip of its motion class) from the motion
 library, :func:`retrieval.animation.retarget` onto the ``ar.scene`` design (robot / cat
 / kid), then :func:`retrieval.animation.follow_path` along the path mapped into the scene
-by a :class:`app.scene.placement.TablePlacement`: walk and run loop along the path;
+by a :class:`app.player.placement.TablePlacement`: walk and run loop along the path;
 jump, dance and kick, and the hop / spin marks, are one-shots along a walk.
 
 Needs :mod:`ar.scene` only (the character designs are numpy): it runs on the tablet.
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from app.paths import MOTIONS_DIR
-from app.scene.placement import PREVIEW_PLACEMENT, TablePlacement, table_to_scene
+from app.player.placement import PREVIEW_PLACEMENT, TablePlacement, table_to_scene
 from app.story import Character
 from ar.scene import Character as CharacterDesign
 from ar.scene import build_character

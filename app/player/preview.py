@@ -6,11 +6,11 @@ path and seen from above the table.
 with pyrender (:class:`ar.render.PyrenderSceneRenderer`, imported on first use) for the
 MP4 export and headless tests. The app draws the description itself with Kivy GL
 (:mod:`app.ui.gl`). Preparing a scene (load the clip, retarget, follow the path;
-:class:`app.scene.animator.SceneAnimator`) costs about a second per character, so
+:class:`app.player.animator.SceneAnimator`) costs about a second per character, so
 prepared scenes are cached by content; changing a path prepares the scene again. A
 character whose motion cannot be laid on its path is reported in ``problems`` and left
 out; the tablet keeps its 2-D preview meanwhile. The table is laid in the scene by
-:data:`app.scene.placement.PREVIEW_PLACEMENT` (full size, seen from the child's side).
+:data:`app.player.placement.PREVIEW_PLACEMENT` (full size, seen from the child's side).
 """
 from __future__ import annotations
 
@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from app.paths import MOTIONS_DIR
-from app.scene.animator import SceneAnimator
-from app.scene.placement import PREVIEW_PLACEMENT, table_to_scene
+from app.player.animator import SceneAnimator
+from app.player.placement import PREVIEW_PLACEMENT, table_to_scene
 from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Scene
 from ar import look_at
 from ar.scene import Lighting, SceneDescription, View, add_character, add_mesh, ribbon, table_mesh

@@ -20,15 +20,15 @@ Per frame (the rig's one frame loop, :mod:`ar.rig`, as ``storybeam demo`` steps 
    what an audience standing by the rig sees.
 
 The story's table (1.2 x 0.8 m on the tablet) is played as a miniature on the marker
-board (:data:`app.scene.placement.STAGE_PLACEMENT`): scaled by
-:data:`app.scene.placement.STAGE_SCALE` and centred on the board, the table's long side
+board (:data:`app.player.placement.STAGE_PLACEMENT`): scaled by
+:data:`app.player.placement.STAGE_SCALE` and centred on the board, the table's long side
 along the board's long side, the child's edge of the table nearest the rig's camera.
 Characters stand :data:`STAGE_CHARACTER_HEIGHT_M` tall there (a little larger than the
 scale alone would make them, so they read in the projected light; the path timing is kept).
 
 A :class:`StageRenderer` owns GL state: create and use it on one thread only (the app's
-:class:`app.scene.render_thread.RenderThread` through
-:class:`app.scene.app_renderer.AppRenderer`, or the export's worker process).
+:class:`app.player.render_thread.RenderThread` through
+:class:`app.player.app_renderer.AppRenderer`, or the export's worker process).
 
 Needs no pyrender (it is imported only when ``draw="pyrender"`` draws a first frame):
 the stage runs on the tablet with ``draw=None``.
@@ -45,8 +45,8 @@ import cv2
 import numpy as np
 
 from app.paths import MOTIONS_DIR
-from app.scene.animator import SceneAnimator
-from app.scene.placement import STAGE_PLACEMENT
+from app.player.animator import SceneAnimator
+from app.player.placement import STAGE_PLACEMENT
 from app.story import Scene
 from ar import DEFAULT_BOARD_SPEC, Board, project_points
 from ar.errors import RigError
