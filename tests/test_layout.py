@@ -112,3 +112,33 @@ def test_coverage_scan_can_fail(tmp_path: Path):
 def test_repo_scan_sees_the_test_files():
     modules = scan(packages=("retrieval", "ar", "app", "tests"))
     assert "tests.test_layout" in modules and (REPO / "tests" / "test_layout.py") == modules["tests.test_layout"].path
+
+
+#: The most lines one module may have (issue 30): past it, a module holds more than one concept.
+MAX_MODULE_LINES = 700
+
+
+def long_modules(root: Path, limit: int = MAX_MODULE_LINES) -> list[str]:
+    """``path: N lines`` for every ``.py`` under ``root`` (virtual environments and build
+    folders aside) longer than ``limit`` lines."""
+    skip = {".venv", ".git", ".buildozer", "build", "out", ".kivy"}
+    out = []
+    for path in sorted(root.rglob("*.py")):
+        if skip & set(path.relative_to(root).parts):
+            continue
+        n = len(path.read_text(encoding="utf-8", errors="replace").splitlines())
+        if n > limit:
+            out.append(f"{path.relative_to(root)}: {n} lines")
+    return out
+
+
+def test_no_module_is_over_the_line_limit():
+    long = long_modules(REPO)
+    assert not long, f"modules over {MAX_MODULE_LINES} lines (split them by concept): {long}"
+
+
+def test_line_limit_check_can_fail(tmp_path: Path):
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "big.py").write_text("x = 1\n" * (MAX_MODULE_LINES + 1))
+    (tmp_path / "pkg" / "small.py").write_text("x = 1\n" * MAX_MODULE_LINES)
+    assert long_modules(tmp_path) == [f"pkg/big.py: {MAX_MODULE_LINES + 1} lines"]
