@@ -1,6 +1,6 @@
 """"Act it out": the child performs a movement in front of the camera, and the nearest
 library motions come back. The one flow behind the editor's *Act it out* view
-(:mod:`app.ui.act_it_out`) and ``storybeam search --video`` (:mod:`app.commands.search_cmd`).
+(:mod:`app.ui.act_view`) and ``storybeam search --video`` (:mod:`app.commands.search_cmd`).
 
 A take (:meth:`ActItOut.take_from_source`) reads frames from a camera source
 (:class:`ar.camera_sources.CameraSource`: the Kivy camera on the tablet, a video file on a

@@ -81,7 +81,7 @@ class StoryBeamApp(App):
         #: ``index -> Kivy Camera-like object`` for :class:`app.ui.kivy_camera.KivyCameraSource`
         #: (tests give a stand-in; None = ``kivy.core.camera.Camera``)
         self.kivy_camera_factory: Callable | None = None
-        #: the camera "Act it out" films the child with (:mod:`app.ui.act_it_out`): the Kivy
+        #: the camera "Act it out" films the child with (:mod:`app.ui.act_view`): the Kivy
         #: camera (``kivy:N``; the tablet's front camera ``kivy:1`` on Android), a device number,
         #: or a video file / image folder played looped (desktop, tests)
         self.act_camera = act_camera or ("kivy:1" if platform == "android" else "0")

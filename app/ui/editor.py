@@ -237,7 +237,7 @@ class EditorScreen(Screen):
         right.add_widget(motion_grid)
         likes = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
         likes.add_widget(IconButton("more", t("more_like_this"), on_press=self.more_like_this, font_size=dp(14)))
-        self.act_button = None  # "Act it out" (app.ui.act_it_out), unless the teacher switched the camera off
+        self.act_button = None  # "Act it out" (app.ui.act_view), unless the teacher switched the camera off
         if act_it_out_allowed(app.store):
             self.act_button = IconButton("act", t("act_it_out"), on_press=self.act_it_out, font_size=dp(14))
             likes.add_widget(self.act_button)
@@ -395,7 +395,7 @@ class EditorScreen(Screen):
         self.pose_view.open()
 
     def act_it_out(self) -> None:
-        """Open the camera view (:class:`app.ui.act_it_out.ActItOutView`): the child shows a
+        """Open the camera view (:class:`app.ui.act_view.ActItOutView`): the child shows a
         movement; the motion picked from the nearest ones goes to the selected character."""
         app = App.get_running_app()
         if self.selected_character() is None:
@@ -404,7 +404,7 @@ class EditorScreen(Screen):
         if not act_it_out_allowed(app.store):  # switched off since the screen was drawn
             self.refresh()
             return
-        from app.ui.act_it_out import ActItOutView  # deferred: the camera view loads when first opened
+        from app.ui.act_view import ActItOutView  # deferred: the camera view loads when first opened
 
         self.act_view = ActItOutView(on_pick=self._pick_clip)
         self.act_view.open()

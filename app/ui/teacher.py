@@ -363,7 +363,7 @@ class TeacherScreen(Screen):
         self.action_buttons["rig_camera"] = IconButton("projector", t("rig_camera"), on_press=self.save_camera,
                                                        font_size=dp(13))
         right.add_widget(self.action_buttons["rig_camera"])
-        act_on = act_it_out_allowed(store)  # the class's camera switch for "Act it out" (app.ui.act_it_out)
+        act_on = act_it_out_allowed(store)  # the class's camera switch for "Act it out" (app.ui.act_view)
         self.action_buttons["act_it_out"] = IconButton(
             "act", f"{t('act_setting')}: {t('on') if act_on else t('off')}", on_press=self.toggle_act_it_out,
             selected=act_on, font_size=dp(13))
