@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from kivy.core.window import Window
-from ui_touch import NotReady, centre, drag, stroke, table_px, tap, touching
+from ui_touch import centre, drag, stroke, table_px, tap, touching
 
 drv = sys.modules["__main__"]
 
