@@ -644,3 +644,35 @@ def test_rules_name_only_known_units():
             ALLOWED[unit]
         )
     assert all(is_storybeam(u) for u in UNITS)
+
+
+#: The rig's frame loop has one definition, ar.rig.RigTracker.step (issue 30). Its parts
+#: may be used outside ar/ only by these modules: (module, why).
+RIG_LOOP_PARTS = ("RegionPoseEstimator", "estimate_board_pose", "solve_board_pose", "PoseTracker")
+RIG_LOOP_PART_USERS = (
+    ("lab.bench.ar", "the unfiltered poses' jitter and the detection before issue 13, timed beside the rig's"),
+    ("lab.stress.tracking", "hands the rig a PoseTracker of its own settings (RigTracker(tracker=...)); never steps it"),
+)
+
+
+def rig_loop_offences(modules: Mapping[str, Module], users: Iterable[tuple[str, str]] = RIG_LOOP_PART_USERS,
+                      root: Path = REPO) -> list[str]:
+    """Imports of the frame loop's parts from outside ar/ by a module not in ``users``."""
+    allowed = {name for name, _why in users}
+    return _dedupe(f"{imp.describe(root)}: the rig's frame loop is ar.rig.RigTracker.step; step it instead"
+                   for module in modules.values() if not module.name.startswith("ar.") and module.name != "ar"
+                   and module.name not in allowed
+                   for imp in module.imports if imp.name in RIG_LOOP_PARTS and imp.top == "ar")
+
+
+def test_the_rig_frame_loop_has_one_definition(modules):
+    assert not rig_loop_offences(modules), _report("the rig's frame loop rebuilt outside ar/",
+                                                   rig_loop_offences(modules), "see RIG_LOOP_PART_USERS")
+
+
+def test_checkers_catch_a_frame_loop_outside_ar(tmp_path):
+    scanned = _write(tmp_path, {"ar/__init__.py": '"""A."""\n', "ar/pose.py": "class RegionPoseEstimator: ...\n",
+                                "app/__init__.py": '"""B."""\n',
+                                "app/stage.py": "from ar.pose import RegionPoseEstimator\n"}, ("ar", "app"))
+    found = rig_loop_offences(scanned, (), tmp_path)
+    assert len(found) == 1 and "app/stage.py:1" in found[0]
