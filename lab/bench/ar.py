@@ -39,7 +39,7 @@ from ar.filtering import TRACKING, PoseKalmanFilter, PoseOneEuroFilter, PoseTrac
 from ar.geometry import pose_error, rotation_angle_deg
 from ar.pose import draw_pose, estimate_board_pose
 from ar.render import ProjectorRenderer, add_test_scene
-from ar.rig import RigTracker
+from ar.rig import ProjectedLight, RigTracker
 from ar.scene import SceneDescription, View, add_character, board_from_scene, build_character, rest_motion, scaled_model
 from ar.synthetic import (Degradation, SyntheticCamera, TrajectoryConfig, calibration_poses,
                           capture_projector_sequence, default_camera, default_proj_from_cam, default_projector,
@@ -308,8 +308,9 @@ def measure_frames(renderer_name: str, factory, conditions: list[Condition], fra
     """Camera frame -> projector frame, timed on ``frames`` synthetic 640x480 frames per condition.
 
     Per frame: the product's frame loop (:meth:`ar.rig.RigTracker.step`: board detection
-    and pose on the region the last pose predicts, whole frame when lost, the Kalman
-    tracker, the projector pose), the projector's scene (a 10 cm robot standing at the board centre, its 20-odd parts posed
+    and pose on the region the last pose predicts, whole frame when lost, the corners
+    under the previous frame's light left out as the stage does, the Kalman tracker, the
+    projector pose), the projector's scene (a 10 cm robot standing at the board centre, its 20-odd parts posed
     per frame) and the render by
     the renderer ``factory()`` makes. ``detect_pose_ms`` covers detection, pose and filter; ``render_ms``
     making the description and rendering it; ``frame_ms`` both. The rig uses its true
@@ -346,18 +347,20 @@ def measure_frames(renderer_name: str, factory, conditions: list[Condition], fra
         det_ms, ren_ms, frame_ms, rot, trans, legacy_ms = [], [], [], [], [], []
         cpu_det, cpu_ren, cpu_frame, cpu_legacy, lit = [], [], [], [], []
         renderer.render(stage_description(view, character, poses_char[0], None))  # warm-up: GL set-up, uploads
+        shown: ProjectedLight | None = None  # the light of the frame before, handed to the rig as the stage does
         for i, (img, T_true) in enumerate(zip(images, truth)):
             t_legacy, c_legacy = time.perf_counter(), time.process_time()
             estimate_board_pose(img, legacy, camera.K, camera.dist)
             legacy_ms.append((time.perf_counter() - t_legacy) * 1000)
             cpu_legacy.append((time.process_time() - c_legacy) * 1000)
             t0, c0 = time.perf_counter(), time.process_time()
-            step = rig.step(img, i / traj.fps, i)
+            step = rig.step(img, i / traj.fps, i, shown)
             t1, c1 = time.perf_counter(), time.process_time()
             est = step.estimate
             T_ps = step.T_proj_from_board @ board_from_scene(board) if step.T_proj_from_board is not None else None
             light = renderer.render(stage_description(view, character, poses_char[i % len(poses_char)], T_ps))
             t2, c2 = time.perf_counter(), time.process_time()
+            shown = ProjectedLight(light, projector, step.T_proj_from_board)
             assert light.shape == (h, w, 3)
             lit.append(float((light.max(axis=2) > 20).mean()))
             det_ms.append((t1 - t0) * 1000)
