@@ -1,7 +1,8 @@
 """The table's shape as a height map over the board plane (issue 28, "Scan the table").
 
-A :class:`HeightMap` is a regular grid in the *board frame* (metres; the board plane is
-``z = 0``, ``+z`` up out of the table): cell ``(i, j)`` covers
+A :class:`HeightMap` is a regular grid in the *board frame* (:mod:`ar.boards`: metres,
+the board plane is ``z = 0`` and ``+z`` points *into* the table, so "up" is ``-z`` and a
+point's height is ``-z``): cell ``(i, j)`` covers
 ``x0 + j*cell_m <= x < x0 + (j+1)*cell_m`` and ``y0 + i*cell_m <= y < y0 + (i+1)*cell_m``,
 its centre is at ``(x0 + (j + 0.5)*cell_m, y0 + (i + 0.5)*cell_m)``. ``heights[i, j]`` is
 the surface's height above the board plane there (float32 metres) and ``known[i, j]`` says
@@ -9,7 +10,7 @@ whether the scan saw it.
 
 Method
     Rasterisation (:meth:`HeightMap.from_points`): triangulated points (board frame) are
-    binned into cells; a cell's height is the **median** ``z`` of its points (robust to the
+    binned into cells; a cell's height is the **median** height ``-z`` of its points (robust to the
     odd mis-decoded Gray-code pixel, which lands far above or below the surface), and the
     cell is known when it holds at least ``min_points`` points. Unknown cells form holes
     (specular spots, decoding failures, the projector's and camera's shadows beside a box).
@@ -134,10 +135,11 @@ class HeightMap:
     def from_points(cls, points_board: np.ndarray, cell_m: float = DEFAULT_CELL_M,
                     extent: tuple[float, float, float, float] | None = None, min_points: int = DEFAULT_MIN_POINTS,
                     max_hole_cells: int = DEFAULT_MAX_HOLE_CELLS) -> "HeightMap":
-        """Rasterise ``points_board`` ((N, 3) metres, board frame) into a height map.
+        """Rasterise ``points_board`` ((N, 3) metres, board frame: a point's height above
+        the board is ``-z``) into a height map.
 
         ``extent`` ``(x_min, x_max, y_min, y_max)`` fixes the grid (points outside are
-        dropped); by default it is the points' bounding box. Per cell the median ``z`` of
+        dropped); by default it is the points' bounding box. Per cell the median height of
         at least ``min_points`` points; bounded holes of at most ``max_hole_cells`` cells
         filled from the nearest known cell (see the module docstring)."""
         pts = np.asarray(points_board, np.float64)
@@ -161,7 +163,7 @@ class HeightMap:
         row = np.floor((pts[:, 1] - y_min) / cell_m).astype(np.int64)
         inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)
         cell = row[inside] * w + col[inside]
-        z = pts[inside, 2]
+        z = -pts[inside, 2]  # height: board +z points into the table
         heights = np.zeros(h * w, np.float32)
         counts = np.bincount(cell, minlength=h * w)
         if len(cell):
