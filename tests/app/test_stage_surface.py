@@ -1,0 +1,107 @@
+"""The projector stage on a scanned table (issue 28): a character whose path crosses a box
+is drawn on the box's top, so its projected feet land on it.
+
+Landing error, per planted sole point on the box top: the stage draws the foot from the
+*tracked* projector pose; the ray of the true projector through that pixel meets the true
+box top at the landing point; its distance from where the foot stands (board x, y) is how
+far the light of the foot lands from the foot. The synthetic rig gives the truth (the
+hand's pose, the rig's extrinsics); the box is 4.5 cm tall.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.player.stage import StageRenderer
+from app.story.model import Character, MotionChoice, Scene
+from ar import HEIGHT_MAP_FILE, HeightMap, invert, project_points
+from ar.rig import SyntheticRig
+from ar.scene import scene_to_board_points
+from retrieval.animation import contacts, sole_points
+from tests.support.table_scan import box_height, scan_points
+
+LIBRARY = Path(__file__).resolve().parents[2] / "assets" / "motions"
+BOX = (0.035, 0.085, 0.11, 0.17, 0.045)  # board frame: x0, x1, y0, y1, height (m)
+# story-table path (metres, 1.2 x 0.8 table) that the stage's miniature lays along board
+# x = 0.06, from board y = 0.02 to 0.26: straight over the box
+PATH = [(1.0286 - 0.8572 * k / 20, 0.5429, 0.3 * k) for k in range(21)]
+
+pytestmark = [pytest.mark.slow,
+              pytest.mark.skipif(not (LIBRARY / "labels.csv").is_file(), reason="bundled motion library absent")]
+
+
+def _landing_errors(stage: StageRenderer, rig: SyntheticRig, character: Character) -> tuple[np.ndarray, np.ndarray]:
+    """(landing errors, foot heights) in metres for every planted sole point well inside
+    the box top, over the frames the character spends on it."""
+    _design, motion = stage.animator.animate(character)
+    soles, touch = sole_points(motion), contacts(motion)
+    scene = Scene(characters=[character])
+    errors, heights = [], []
+    for f in range(motion.n_frames):
+        board = scene_to_board_points(soles[f], stage.board)
+        inside = np.ones(4, bool)
+        for dx, dy in ((-0.005, 0), (0.005, 0), (0, -0.005), (0, 0.005)):
+            inside &= box_height([BOX], board[:, 0] + dx, board[:, 1] + dy) > 0
+        if not (touch[f] & inside).any():
+            continue
+        frame = stage.render(scene, f / stage.fps)
+        assert frame.description is not None, "the synthetic rig lost the board"
+        view = frame.description.view
+        T_true = invert(rig.T_proj_from_cam @ rig.true_pose(rig._i - 1))  # board from true projector
+        for k in np.flatnonzero(touch[f] & inside):
+            px = project_points(soles[f, k][None], view.T_view_from_scene, view.K, np.zeros(5))[0]
+            ray = T_true[:3, :3] @ np.linalg.solve(view.K, [px[0], px[1], 1.0])
+            origin = T_true[:3, 3]
+            land = origin + ray * ((-BOX[4] - origin[2]) / ray[2])  # the true top: z = -height
+            errors.append(np.linalg.norm(land[:2] - board[k, :2]))
+            heights.append(-board[k, 2])
+    return np.array(errors), np.array(heights)
+
+
+def test_feet_land_on_the_scanned_box_top_within_3_mm(tmp_path):
+    scan = HeightMap.from_points(scan_points([BOX], (-0.05, 0.25, -0.05, 0.33)))
+    scan.save(tmp_path / HEIGHT_MAP_FILE)
+    character = Character(kind="robot", path=PATH, motion=MotionChoice("walk"))
+    rig = SyntheticRig()
+    stage = StageRenderer(rig=rig, profile_dir=tmp_path, draw=None)  # finds table.npz in the profile
+    try:
+        assert stage.height_map is not None
+        errors, heights = _landing_errors(stage, rig, character)
+    finally:
+        stage.close()
+    print(f"\nfeet on the box top: landing error median {np.median(errors) * 1000:.2f} mm, "
+          f"max {errors.max() * 1000:.2f} mm over {len(errors)} planted sole points; "
+          f"height median {np.median(heights) * 1000:.2f} mm (box {BOX[4] * 1000:.0f} mm)")
+    assert len(errors) >= 10
+    assert np.median(errors) < 0.003 and np.percentile(errors, 90) < 0.003
+    assert np.all(np.abs(heights - BOX[4]) < 0.003)
+
+    # the same story on the bare table: the feet are drawn on the table under the box, and
+    # their light lands centimetres off on its top
+    bare_rig = SyntheticRig()
+    bare = StageRenderer(rig=bare_rig, draw=None)
+    try:
+        assert bare.height_map is None
+        bare_errors, _ = _landing_errors(bare, bare_rig, character)
+    finally:
+        bare.close()
+    assert np.median(bare_errors) > 0.01
+
+
+def test_the_path_over_the_box_jumps_at_its_edges():
+    scan = HeightMap.from_points(scan_points([BOX], (-0.05, 0.25, -0.05, 0.33)))
+    stage = StageRenderer(rig=SyntheticRig(), draw=None, height_map=scan)
+    try:
+        _design, motion = stage.animator.animate(Character(kind="robot", path=PATH, motion=MotionChoice("walk")))
+    finally:
+        stage.close()
+    root = scene_to_board_points(motion.root_translation * motion.skeleton.metres_per_unit, stage.board)
+    lift = -root[:, 2] - np.median(-root[root[:, 1] < BOX[2] - 0.03, 2])  # root height over its height on the table
+    y = root[:, 1]
+    top = (y > BOX[2] + 0.02) & (y < BOX[3] - 0.02)
+    assert np.abs(np.median(lift[top]) - BOX[4]) < 0.002  # on the box, one box higher
+    for edge in (BOX[2], BOX[3]):  # around each edge the root flies over the top
+        near = np.abs(y - edge) < 0.01
+        assert lift[near].max() > BOX[4] + 0.01
