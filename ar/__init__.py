@@ -11,6 +11,7 @@ names below from ``ar``):
 * :mod:`ar.calibration` -- camera and projector-camera calibration, validated JSON;
 * :mod:`ar.synthetic` -- an exact synthetic camera and projector with known truth, and
   recorded hand-held rig sessions (blur, noise, exposure, a hand) with their true poses;
+* :mod:`ar.height_map` -- the scanned table: heights over the board plane (``HeightMap``);
 * :mod:`ar.camera_sources` -- camera frames from a device, a video file, a folder of images;
 * :mod:`ar.live` -- tracking on its own threads (newest frame wins, dropped frames counted);
 * :mod:`ar.rig` -- the rig's one frame loop (``RigTracker.step``: region detection, pose,
@@ -83,6 +84,7 @@ from ar.geometry import (
     rotation_angle_deg,
     to_rvec_tvec,
 )
+from ar.height_map import HeightMap, HeightMapError
 from ar.live import LiveStats, LiveTracker
 from ar.pose import (
     PoseEstimate,
@@ -137,6 +139,8 @@ __all__ = [
     "calibrate_from_correspondences", "calibrate_camera", "make_projector_pattern", "place_pattern",
     "detect_projected_corners", "rig_pose_for_step", "extract_projector_view", "calibrate_projector",
     "write_capture", "calibrate_projector_from_folder", "extrinsics_error",
+    # the scanned table (issue 28)
+    "HeightMap", "HeightMapError",
     # synthetic bench
     "PinholeModel", "default_camera", "default_projector", "default_proj_from_cam", "Degradation",
     "make_table_texture", "SyntheticCamera", "TrajectoryConfig", "handheld_trajectory", "calibration_poses",
