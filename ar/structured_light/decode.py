@@ -36,7 +36,10 @@ DEFAULT_WHITE_THRESHOLD = 5
 @dataclass
 class DecodedPose:
     """One pose's decoding: projector ``col``/``row`` per camera pixel (int32, -1 where
-    unknown), the ``mask`` of decoded pixels, and the white and black captures (grey)."""
+    unknown), the ``mask`` of decoded pixels, the white and black captures (grey) and the
+    shadow mask ``lit`` (projector light reaches the pixel; every decoded pixel is lit,
+    not every lit pixel decodes: where the camera's pixel spans a whole stripe of the
+    finest patterns, pattern and inverse look alike)."""
 
     name: str
     col: np.ndarray
@@ -44,6 +47,7 @@ class DecodedPose:
     mask: np.ndarray
     white: np.ndarray
     black: np.ndarray
+    lit: np.ndarray
 
     @property
     def image_size(self) -> tuple[int, int]:
@@ -78,7 +82,8 @@ def decode_images(images: Sequence[np.ndarray], projector_size: tuple[int, int],
     grey = [im if im.ndim == 2 else cv2.cvtColor(im, cv2.COLOR_BGR2GRAY) for im in images]
     white = grey[layout.white_index]
     black = grey[layout.black_index]
-    mask = white.astype(np.int16) - black.astype(np.int16) > black_threshold
+    lit = white.astype(np.int16) - black.astype(np.int16) > black_threshold
+    mask = lit.copy()
     cb, rb = layout.col_bits, layout.row_bits
     codes = []
     for first, n in ((0, cb), (2 * cb, rb)):
@@ -91,7 +96,7 @@ def decode_images(images: Sequence[np.ndarray], projector_size: tuple[int, int],
     mask &= (col < layout.width) & (row < layout.height)
     col = np.where(mask, col, -1).astype(np.int32)
     row = np.where(mask, row, -1).astype(np.int32)
-    return DecodedPose(name, col, row, mask, white, black)
+    return DecodedPose(name, col, row, mask, white, black, lit)
 
 
 def pose_image_files(folder: str | Path, projector_size: tuple[int, int]) -> list[Path]:

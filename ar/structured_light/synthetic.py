@@ -16,9 +16,12 @@ remap and one resize, so a 42-image pose renders in about a second.
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
-from typing import Sequence
+from pathlib import Path
+from typing import Callable, Sequence
 
+import cv2
 import numpy as np
 
 from ar.boards import Board
@@ -163,3 +166,35 @@ def graycode_poses(board: Board, proj_from_cam: np.ndarray, n_poses: int = 5, di
         T_proj_from_board = look_at(eye, c, up)
         poses.append(invert(proj_from_cam) @ T_proj_from_board)
     return poses
+
+
+def default_scan_box(board: Board) -> Box:
+    """A 60 x 80 x 30 mm box standing on the table just right of the board (in every
+    synthetic pose's view, clear of the board's corners)."""
+    w = board.sheet_size_m[0]
+    return Box(w + 0.01, 0.06, w + 0.07, 0.14, 0.03)
+
+
+def write_graycode_captures(folder: str | Path, scene: GrayCodeScene, poses: Sequence[np.ndarray],
+                            degradation: Degradation | None = None,
+                            progress: Callable[[str], None] | None = None) -> Path:
+    """Render each pose's Gray-code captures into ``folder/pose_XX/NN.png`` (grey, names
+    sorting in sequence order) and the truth into ``folder/truth.json``; returns ``folder``."""
+    folder = Path(folder)
+    cam = scene.cam
+    for i, T in enumerate(poses):
+        pose_dir = folder / f"pose_{i:02d}"
+        pose_dir.mkdir(parents=True, exist_ok=True)
+        for k, frame in enumerate(scene.capture_graycode(T, degradation, seed=i)):
+            cv2.imwrite(str(pose_dir / f"{k:02d}.png"), cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
+        if progress:
+            progress(f"rendered {pose_dir.name} ({i + 1}/{len(poses)})")
+    truth = {"camera": {"camera_matrix": cam.camera.K.tolist(), "dist_coeffs": cam.camera.dist.tolist(),
+                        "image_size": list(cam.camera.size)},
+             "projector": {"camera_matrix": cam.projector.K.tolist(), "dist_coeffs": cam.projector.dist.tolist(),
+                           "image_size": list(cam.projector.size)},
+             "R": cam.proj_from_cam[:3, :3].tolist(), "T": cam.proj_from_cam[:3, 3].tolist(),
+             "board": str(cam.board.spec), "T_cam_from_board": {f"pose_{i:02d}": T.tolist() for i, T in enumerate(poses)},
+             "boxes": [{"x0": b.x0, "y0": b.y0, "x1": b.x1, "y1": b.y1, "height": b.height} for b in scene.boxes]}
+    (folder / "truth.json").write_text(json.dumps(truth, indent=1))
+    return folder
