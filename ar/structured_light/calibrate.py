@@ -135,6 +135,7 @@ class GrayCodeCalibration:
     rejected_poses: dict[str, str] = field(default_factory=dict)
     projector_rms: float = 0.0  # the projector-only intrinsic fit
     window_px: int = DEFAULT_WINDOW_PX
+    board: str = ""  # the board spec the captures show
 
     @property
     def R(self) -> np.ndarray:
@@ -153,7 +154,7 @@ class GrayCodeCalibration:
         data.update({"method": "graycode (Moreno-Taubin local homographies)", "camera": self.camera.to_dict(),
                      "R": self.R.tolist(), "T": self.T.ravel().tolist(), "rms": float(self.rms),
                      "camera_rms": float(self.camera.rms), "projector_rms": float(self.projector_rms),
-                     "per_pose": self.per_pose, "rejected_poses": self.rejected_poses, "window_px": self.window_px})
+                     "per_pose": self.per_pose, "rejected_poses": self.rejected_poses, "window_px": self.window_px, "board": self.board})
         return data
 
     def save(self, path: str | Path) -> Path:
@@ -177,7 +178,7 @@ class GrayCodeCalibration:
         if not isinstance(per_pose, dict) or not isinstance(rejected, dict):
             raise CalibrationError("per_pose and rejected_poses must be objects", path)
         return cls(camera, projector, per_pose, rejected, float(data.get("projector_rms", 0.0)),
-                   int(data.get("window_px", DEFAULT_WINDOW_PX)))
+                   int(data.get("window_px", DEFAULT_WINDOW_PX)), str(data.get("board", "")))
 
 
 def _pose_rms(obj: np.ndarray, img: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray, d: np.ndarray) -> float:
@@ -250,7 +251,7 @@ def calibrate_graycode(poses: Sequence[DecodedPose], board: Board, projector_siz
             "corners": int(len(v.object_points))}
     projector = ProjectorCalibration(Kp, dp.ravel(), tuple(int(v) for v in projector_size), R, T, stereo_rms,
                                      stereo_rms, {k: v["projector_px"] for k, v in per_pose.items()}, dict(rejected))
-    return GrayCodeCalibration(camera, projector, per_pose, rejected, prms, window)
+    return GrayCodeCalibration(camera, projector, per_pose, rejected, prms, window, str(board.spec))
 
 
 def calibrate_graycode_folder(root: str | Path, board: Board, projector_size: tuple[int, int],
