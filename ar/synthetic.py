@@ -138,15 +138,14 @@ class SyntheticCamera:
         py = o[1] + s * dy
         return px, py, valid
 
-    def render(self, T_cam_from_board: np.ndarray, projector_image: np.ndarray | None = None,
-               degradation: Degradation | None = None, rng: np.random.Generator | None = None) -> np.ndarray:
-        """BGR uint8 camera frame of the table, board and (optional) projector light.
+    @property
+    def rays(self) -> np.ndarray:
+        """Undistorted normalised ray ``(x, y)`` of every supersampled pixel, (H*ss, W*ss, 2) float32."""
+        return self._rays
 
-        ``projector_image``: what the projector shows, RGB uint8 (H, W, 3) or grey (H, W).
-        """
-        deg = degradation or Degradation()
-        rng = rng or np.random.default_rng(0)
-        px, py, valid = self.plane_points(T_cam_from_board)
+    def albedo(self, px: np.ndarray, py: np.ndarray) -> np.ndarray:
+        """Albedo (BGR float32 in 0..1) of the table plane at board-frame ``(px, py)``: the
+        printed sheet where it lies, the wood texture elsewhere."""
         m = self.sheet_margin_m
         su = ((px + m) * self.sheet_ppm - 0.5).astype(np.float32)
         sv = ((py + m) * self.sheet_ppm - 0.5).astype(np.float32)
@@ -155,16 +154,36 @@ class SyntheticCamera:
         tv = ((py - self.table_origin[1]) * self.table_ppm - 0.5).astype(np.float32)
         table = cv2.remap(self.table, tu, tv, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
         on_sheet = sheet >= 0
-        albedo = np.where(on_sheet[..., None], np.repeat(sheet[..., None], 3, -1), table)
-        light = np.full(px.shape, self.ambient, np.float32)
+        return np.where(on_sheet[..., None], np.repeat(sheet[..., None], 3, -1), table)
+
+    def ambient_light(self, shape: tuple[int, ...], deg: Degradation) -> np.ndarray:
+        """Room light on each supersampled pixel, (H, W, 1), with the degradation's fall-off."""
+        light = np.full(shape[:2], self.ambient, np.float32)
         if deg.gradient:
-            ramp = np.linspace(1.0, 1.0 - deg.gradient, px.shape[1], dtype=np.float32)
-            light *= ramp[None, :]
-        light = light[..., None]
+            light *= np.linspace(1.0, 1.0 - deg.gradient, shape[1], dtype=np.float32)[None, :]
+        return light[..., None]
+
+    def render(self, T_cam_from_board: np.ndarray, projector_image: np.ndarray | None = None,
+               degradation: Degradation | None = None, rng: np.random.Generator | None = None) -> np.ndarray:
+        """BGR uint8 camera frame of the table, board and (optional) projector light.
+
+        ``projector_image``: what the projector shows, RGB uint8 (H, W, 3) or grey (H, W).
+        """
+        deg = degradation or Degradation()
+        px, py, valid = self.plane_points(T_cam_from_board)
+        albedo = self.albedo(px, py)
+        light = self.ambient_light(px.shape, deg)
         if projector_image is not None:
-            light = light + self.projector_gain * self._projector_light(T_cam_from_board, px, py, projector_image)
+            light = light + self.projector_gain * self.projector_light(T_cam_from_board, px, py, projector_image)
         img = albedo * light * deg.exposure
         img[~valid] = 0
+        return self.finish(img, T_cam_from_board, deg, rng)
+
+    def finish(self, img: np.ndarray, T_cam_from_board: np.ndarray, deg: Degradation,
+               rng: np.random.Generator | None = None) -> np.ndarray:
+        """Supersampled linear radiance (0..1) -> the camera's uint8 frame: area-average to
+        the output size, then the degradation's hand, blur and noise."""
+        rng = rng or np.random.default_rng(0)
         img = cv2.resize(img, self.camera.size, interpolation=cv2.INTER_AREA) if self.ss > 1 else img
         img = img * 255.0
         if deg.occlusion > 0:
@@ -177,25 +196,27 @@ class SyntheticCamera:
             img = img + rng.normal(0, deg.noise_sigma, img.shape).astype(np.float32)
         return np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
-    def _projector_light(self, T_cam_from_board: np.ndarray, px: np.ndarray, py: np.ndarray,
-                         projector_image: np.ndarray) -> np.ndarray:
-        """Projector radiance arriving at each plane point (H, W, 3) in 0..1."""
+    def projector_light(self, T_cam_from_board: np.ndarray, px: np.ndarray, py: np.ndarray,
+                        projector_image: np.ndarray, pz: np.ndarray | None = None) -> np.ndarray:
+        """Projector radiance arriving at board-frame points ``(px, py, pz)`` (``pz`` = 0, the
+        table, when not given): (H, W, 3) in 0..1 for an RGB image, (H, W, 1) for a grey one."""
         T = self.proj_from_cam @ T_cam_from_board  # T_proj_from_board
         R, t = T[:3, :3].astype(np.float32), T[:3, 3].astype(np.float32)
         X = R[0, 0] * px + R[0, 1] * py + t[0]
         Y = R[1, 0] * px + R[1, 1] * py + t[1]
         Z = R[2, 0] * px + R[2, 1] * py + t[2]
+        if pz is not None:
+            X, Y, Z = X + R[0, 2] * pz, Y + R[1, 2] * pz, Z + R[2, 2] * pz
         K = self.projector.K
         with np.errstate(divide="ignore", invalid="ignore"):
             u = (K[0, 0] * X / Z + K[0, 2]).astype(np.float32)
             v = (K[1, 1] * Y / Z + K[1, 2]).astype(np.float32)
         u[~(Z > 0)] = -10
         pimg = projector_image.astype(np.float32) / 255.0
-        if pimg.ndim == 2:
-            pimg = np.repeat(pimg[..., None], 3, -1)
-        else:
+        if pimg.ndim == 3:
             pimg = np.ascontiguousarray(pimg[..., ::-1])  # projector images are RGB (as rendered); frames are BGR
-        return cv2.remap(pimg, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        out = cv2.remap(pimg, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        return out if out.ndim == 3 else out[..., None]
 
     def _occlude(self, img: np.ndarray, T_cam_from_board: np.ndarray, fraction: float,
                  rng: np.random.Generator, exposure: float) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""`storybeam calibrate camera|projector`: intrinsics of the camera, then projector + rig extrinsics."""
+"""`storybeam calibrate camera|projector`: intrinsics of the camera, then projector + rig extrinsics
+(from the guided three-image captures, or from Gray-code captures with ``--graycode``)."""
 from __future__ import annotations
 
 import argparse
@@ -26,9 +27,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     proj = sub.add_parser("projector", help="projector intrinsics + camera->projector transform",
                           description="Works on a folder written by a capture run (step_XX_{dark,white,pattern}.png "
-                                      "+ capture.json). --synthetic runs the guided sequence on the synthetic rig "
-                                      "(writing the captures to --images when given) and reports errors vs truth.")
+                                      "+ capture.json), or with --graycode on Gray-code captures (Moreno-Taubin). "
+                                      "--synthetic runs the sequence on the synthetic rig (writing the captures to "
+                                      "--images / --graycode when given) and reports errors vs truth.")
     proj.add_argument("--images", type=Path, help="capture folder")
+    proj.add_argument("--graycode", type=Path, metavar="DIR",
+                      help="Gray-code captures: one sub-folder per board pose, each with the camera's images of "
+                           "OpenCV's GrayCodePattern sequence (its patterns, then white, then black) in name order")
+    proj.add_argument("--projector-size", metavar="WxH", help="projector resolution, e.g. 1024x768 (with --graycode)")
+    proj.add_argument("--black-threshold", type=float, default=None,
+                      help="--graycode: min white-black difference for a lit pixel (default 40, OpenCV's)")
+    proj.add_argument("--white-threshold", type=float, default=None,
+                      help="--graycode: min pattern-inverse difference for a reliable bit (default 5, OpenCV's)")
+    proj.add_argument("--window", type=int, default=None,
+                      help="--graycode: local homography window, pixels either side of a corner (default 24)")
+    proj.add_argument("--poses", type=int, default=5, help="--graycode --synthetic: board poses to render (default 5)")
     proj.add_argument("--camera", type=Path, help="camera.json (with --synthetic: optional, else calibrated first)")
     proj.add_argument("--board", default=None, help="board spec (default: ChArUco default board)")
     proj.add_argument("--synthetic", action="store_true", help="drive the guided sequence on the synthetic rig")
@@ -83,6 +96,8 @@ def run_projector(args: argparse.Namespace) -> int:
         return 0
     if args.out is None:
         raise StoryBeamError("--out is required")
+    if args.graycode is not None:
+        return run_projector_graycode(args, board)
     if args.synthetic:
         # deferred: the synthetic rig only for --synthetic
         from ar.synthetic import SyntheticCamera, calibration_poses, capture_projector_sequence
@@ -118,5 +133,65 @@ def run_projector(args: argparse.Namespace) -> int:
         rot, trans = extrinsics_error(calib, cam.proj_from_cam)
         print(f"vs truth: extrinsics {rot:.3f} deg, {trans:.2f} mm; projector fx error "
               f"{100 * (K[0, 0] / cam.projector.K[0, 0] - 1):+.3f} %")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def run_projector_graycode(args: argparse.Namespace, board) -> int:
+    """``calibrate projector --graycode DIR``: decode, local homographies, camera/projector/stereo calibration."""
+    import numpy as np  # deferred: with OpenCV, only for this command
+    from ar.calibration import CameraCalibration  # deferred: OpenCV loads only for this command
+    from ar.geometry import rotation_angle_deg  # deferred: as above
+    from ar.structured_light.calibrate import DEFAULT_WINDOW_PX, calibrate_graycode_folder  # deferred: as above
+    from ar.structured_light.decode import DEFAULT_BLACK_THRESHOLD, DEFAULT_WHITE_THRESHOLD  # deferred: as above
+    from ar.structured_light.patterns import parse_projector_size  # deferred: as above
+
+    if args.images is not None:
+        raise StoryBeamError("give either --images (guided captures) or --graycode (Gray-code captures), not both")
+    camera = CameraCalibration.load(args.camera) if args.camera else None
+    truth = None
+    if args.synthetic:
+        # deferred: the synthetic rig only for --synthetic
+        from ar.structured_light.synthetic import (GrayCodeScene, default_scan_box, graycode_poses,
+                                                   write_graycode_captures)
+        from ar.synthetic import SyntheticCamera, default_projector  # deferred: as above
+
+        projector = default_projector()
+        if args.projector_size:
+            projector = projector.scaled(*parse_projector_size(args.projector_size))
+        cam = SyntheticCamera(board, projector=projector)
+        scene = GrayCodeScene(cam, [default_scan_box(board)])
+        write_graycode_captures(args.graycode, scene, graycode_poses(board, cam.proj_from_cam, args.poses),
+                                progress=print)
+        size, truth = projector.size, cam
+        print(f"synthetic captures written to {args.graycode}")
+    elif not args.projector_size:
+        raise StoryBeamError("--projector-size WxH is required with --graycode (the resolution the patterns were made for)")
+    else:
+        size = parse_projector_size(args.projector_size)
+    calib = calibrate_graycode_folder(
+        args.graycode, board, size, camera,
+        DEFAULT_BLACK_THRESHOLD if args.black_threshold is None else args.black_threshold,
+        DEFAULT_WHITE_THRESHOLD if args.white_threshold is None else args.white_threshold,
+        DEFAULT_WINDOW_PX if args.window is None else args.window, progress=print)
+    calib.save(args.out)
+    Kc, Kp, T = calib.camera.camera_matrix, calib.projector.camera_matrix, calib.T
+    print(f"camera    fx={Kc[0, 0]:.2f} fy={Kc[1, 1]:.2f} cx={Kc[0, 2]:.2f} cy={Kc[1, 2]:.2f} "
+          f"dist={[round(float(v), 4) for v in calib.camera.dist_coeffs]} (RMS {calib.camera.rms:.3f} px"
+          f"{', given' if camera is not None else ''})")
+    print(f"projector fx={Kp[0, 0]:.2f} fy={Kp[1, 1]:.2f} cx={Kp[0, 2]:.2f} cy={Kp[1, 2]:.2f} "
+          f"dist={[round(float(v), 4) for v in calib.projector.dist_coeffs]} (RMS {calib.projector_rms:.3f} px)")
+    print(f"camera -> projector: T = ({T[0] * 1000:.2f}, {T[1] * 1000:.2f}, {T[2] * 1000:.2f}) mm, "
+          f"|T| = {np.linalg.norm(T) * 1000:.2f} mm, R = {rotation_angle_deg(calib.R):.3f} deg")
+    print(f"stereo RMS {calib.rms:.3f} px over {len(calib.per_pose)} poses")
+    print("  pose            corners  camera px  projector px")
+    for name, e in calib.per_pose.items():
+        print(f"  {name:<15} {e['corners']:>7}  {e['camera_px']:>9.3f}  {e['projector_px']:>12.3f}")
+    for name, why in calib.rejected_poses.items():
+        print(f"  rejected {name}: {why}")
+    if truth is not None:
+        Kt, Tt = truth.projector.K, truth.proj_from_cam
+        print(f"vs truth: projector fx {100 * (Kp[0, 0] / Kt[0, 0] - 1):+.3f} %, fy {100 * (Kp[1, 1] / Kt[1, 1] - 1):+.3f} %; "
+              f"T {np.linalg.norm(T - Tt[:3, 3]) * 1000:.3f} mm; R {rotation_angle_deg(calib.R @ Tt[:3, :3].T):.4f} deg")
     print(f"wrote {args.out}")
     return 0
