@@ -6,6 +6,14 @@ it off the UI thread) and returns a one-line result. The work is done by ``ar/``
 board detection and ``ar.calibration.calibrate_camera``. Without a camera (this
 development machine, a test) the capture step uses ``ar.synthetic.SyntheticCamera``
 so the whole chain still runs end to end.
+
+The last step, *Scan the table* (:mod:`app.services.table_scan`), projects the Gray-code
+sequence over the table with its objects, scans it into a height map and stores it
+beside the calibration (``table.npz``), where the projector stage finds it. A real rig
+gives the wizard ``scan_capture`` (show each pattern in the projector window, keep a
+camera frame: :func:`app.services.table_scan.capture_sequence`) and the Gray-code
+``projector.json`` in ``out_dir``; the synthetic wizard (no camera) scans the synthetic
+rig's table with boxes, a real camera without ``scan_capture`` is refused. ``scan(captures, calibration) -> HeightMap`` is replaceable (tests).
 """
 from __future__ import annotations
 
@@ -26,7 +34,7 @@ class CalibrationStep:
 
 @dataclass
 class CalibrationWizard:
-    """Board -> capture views -> solve the camera -> save ``camera.json``."""
+    """Board -> capture views -> solve the camera -> save ``camera.json`` -> scan the table."""
 
     out_dir: Path
     camera_index: int | None = None  # None: synthetic camera
@@ -34,6 +42,10 @@ class CalibrationWizard:
     board_spec: str | None = None
     steps: list[CalibrationStep] = field(default_factory=list)
     current: int = 0
+    #: the rig's Gray-code captures at its current pose (None: the synthetic rig's table)
+    scan_capture: Callable[[], list] | None = None
+    #: captures + calibration -> HeightMap (default: decode, triangulate, rasterise)
+    scan: Callable[[list, object], object] | None = None
 
     def __post_init__(self) -> None:
         self._board = None
@@ -44,6 +56,7 @@ class CalibrationWizard:
             CalibrationStep("capture", self._capture),
             CalibrationStep("solve", self._solve),
             CalibrationStep("save", self._save),
+            CalibrationStep("scan", self._scan_table),
         ]
 
     @property
@@ -87,3 +100,19 @@ class CalibrationWizard:
     def _save(self) -> str:
         path = self._calibration.save(Path(self.out_dir) / "camera.json")
         return str(path)
+
+    def _scan_table(self) -> str:
+        from app.services import table_scan  # deferred: OpenCV and the structured-light scan, when the teacher scans
+
+        if self.scan_capture is None:
+            if self.camera_index is not None:  # a real camera but no projector to show the patterns
+                raise StoryBeamError("the projector must show the scan's patterns: connect it as a second display")
+            captures, calibration = table_scan.synthetic_scan(self._board)
+        else:
+            from ar.structured_light.calibrate import GrayCodeCalibration  # deferred: as above
+            calibration = GrayCodeCalibration.load(Path(self.out_dir) / "projector.json")
+            captures = self.scan_capture()
+        scan = self.scan or (lambda caps, cal: table_scan.scan_captures(caps, cal, self._board))
+        height_map = scan(captures, calibration)
+        table_scan.save_scan(height_map, self.out_dir)
+        return table_scan.describe_scan(height_map)
