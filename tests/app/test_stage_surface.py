@@ -17,20 +17,17 @@ import numpy as np
 import pytest
 
 from app.player.stage import StageRenderer
-from app.story.model import Character, MotionChoice, Scene
+from app.story.model import Character, MotionChoice
 from app.services.table_scan import SYNTHETIC_BOXES, scan_captures, synthetic_scan
-from ar import DEFAULT_BOARD_SPEC, HEIGHT_MAP_FILE, Board, HeightMap, invert, project_points
+from ar import DEFAULT_BOARD_SPEC, HEIGHT_MAP_FILE, Board, HeightMap
 from ar.rig import SyntheticRig
 from ar.scene import scene_to_board_points
-from retrieval.animation import contacts, sole_points
-from tests.support.table_scan import box_height
+from lab.bench.surface import PATHS, landing_errors
 
 LIBRARY = Path(__file__).resolve().parents[2] / "assets" / "motions"
 _X0, _Y0, _X1, _Y1, _H = SYNTHETIC_BOXES[0]
 BOX = (_X0, _X1, _Y0, _Y1, _H)  # board frame: x0, x1, y0, y1, height (m)
-# story-table path (metres, 1.2 x 0.8 table) that the stage's miniature lays along board
-# x = 0.185, from board y = 0.05 to 0.30: straight over the box
-PATH = [(0.92143 - 0.89286 * k / 20, 0.09643, 0.3 * k) for k in range(21)]
+PATH = PATHS["pencil case 45 mm"]  # the stage's miniature lays it along board x = 0.185, over the box
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(not (LIBRARY / "labels.csv").is_file(), reason="bundled motion library absent")]
@@ -43,31 +40,10 @@ def scan() -> HeightMap:
 
 
 def _landing_errors(stage: StageRenderer, rig: SyntheticRig, character: Character) -> tuple[np.ndarray, np.ndarray]:
-    """(landing errors, foot heights) in metres for every planted sole point well inside
-    the box top, over the frames the character spends on it."""
-    _design, motion = stage.animator.animate(character)
-    soles, touch = sole_points(motion), contacts(motion)
-    scene = Scene(characters=[character])
-    errors, heights = [], []
-    for f in range(motion.n_frames):
-        board = scene_to_board_points(soles[f], stage.board)
-        inside = np.ones(4, bool)
-        for dx, dy in ((-0.005, 0), (0.005, 0), (0, -0.005), (0, 0.005)):
-            inside &= box_height([BOX], board[:, 0] + dx, board[:, 1] + dy) > 0
-        if not (touch[f] & inside).any():
-            continue
-        frame = stage.render(scene, f / stage.fps)
-        assert frame.description is not None, "the synthetic rig lost the board"
-        view = frame.description.view
-        T_true = invert(rig.T_proj_from_cam @ rig.true_pose(rig._i - 1))  # board from true projector
-        for k in np.flatnonzero(touch[f] & inside):
-            px = project_points(soles[f, k][None], view.T_view_from_scene, view.K, np.zeros(5))[0]
-            ray = T_true[:3, :3] @ np.linalg.solve(view.K, [px[0], px[1], 1.0])
-            origin = T_true[:3, 3]
-            land = origin + ray * ((-BOX[4] - origin[2]) / ray[2])  # the true top: z = -height
-            errors.append(np.linalg.norm(land[:2] - board[k, :2]))
-            heights.append(-board[k, 2])
-    return np.array(errors), np.array(heights)
+    """(landing errors, foot heights) in metres of the planted feet on the box top
+    (:func:`lab.bench.surface.landing_errors`, what ``storybeam bench surface`` reports)."""
+    got = landing_errors(stage, rig, character, SYNTHETIC_BOXES[0])
+    return got["errors"], got["heights"]
 
 
 def test_feet_land_on_the_scanned_box_top_within_3_mm(tmp_path, scan):
