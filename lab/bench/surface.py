@@ -170,7 +170,7 @@ def plot_surface(height_map: HeightMap, traces: dict, path: Path, board: Board) 
     shown = np.where(height_map.known, height_map.heights * 1000, np.nan)
     im = ax0.imshow(shown, origin="upper", extent=(x0 * 100, x1 * 100, y1 * 100, y0 * 100), cmap="viridis")
     fig.colorbar(im, ax=ax0, label="height above the board (mm); white: not seen")
-    ax0.set(xlabel="board x (cm)", ylabel="board y (cm)", title="scanned table (synthetic Gray-code scan)")
+    ax0.set(xlabel="board x (cm)", ylabel="board y (cm)", title="scanned table (synthetic scan)")
     for (kind, name), res in traces.items():
         m = res.motion
         root = scene_to_board_points(m.root_translation * m.skeleton.metres_per_unit, board)
