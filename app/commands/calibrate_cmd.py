@@ -41,7 +41,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                       help="--graycode: min pattern-inverse difference for a reliable bit (default 5, OpenCV's)")
     proj.add_argument("--window", type=int, default=None,
                       help="--graycode: local homography window, pixels either side of a corner (default 24)")
-    proj.add_argument("--poses", type=int, default=5, help="--graycode --synthetic: board poses to render (default 5)")
+    proj.add_argument("--poses", type=int, default=5, help="--graycode --synthetic: board poses to render (default 5), "
+                                                                     "then one scan pose (board and a 30 mm box)")
     proj.add_argument("--camera", type=Path, help="camera.json (with --synthetic: optional, else calibrated first)")
     proj.add_argument("--board", default=None, help="board spec (default: ChArUco default board)")
     proj.add_argument("--synthetic", action="store_true", help="drive the guided sequence on the synthetic rig")
@@ -152,7 +153,7 @@ def run_projector_graycode(args: argparse.Namespace, board) -> int:
     truth = None
     if args.synthetic:
         # deferred: the synthetic rig only for --synthetic
-        from ar.structured_light.synthetic import (GrayCodeScene, default_scan_box, graycode_poses,
+        from ar.structured_light.synthetic import (GrayCodeScene, default_scan_box, graycode_poses, scan_view,
                                                    write_graycode_captures)
         from ar.synthetic import SyntheticCamera, default_projector  # deferred: as above
 
@@ -160,9 +161,10 @@ def run_projector_graycode(args: argparse.Namespace, board) -> int:
         if args.projector_size:
             projector = projector.scaled(*parse_projector_size(args.projector_size))
         cam = SyntheticCamera(board, projector=projector)
-        scene = GrayCodeScene(cam, [default_scan_box(board)])
-        write_graycode_captures(args.graycode, scene, graycode_poses(board, cam.proj_from_cam, args.poses),
-                                progress=print)
+        box = default_scan_box(board)
+        scene = GrayCodeScene(cam, [box])
+        poses = graycode_poses(board, cam.proj_from_cam, args.poses) + [scan_view(board, box, cam.proj_from_cam)]
+        write_graycode_captures(args.graycode, scene, poses, progress=print, scan_pose=len(poses) - 1)
         size, truth = projector.size, cam
         print(f"synthetic captures written to {args.graycode}")
     elif not args.projector_size:
