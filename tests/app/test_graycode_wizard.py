@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-pytestmark = pytest.mark.slow  # 4 poses x 38 rendered captures, then a calibration (~20 s)
+pytestmark = pytest.mark.slow  # 4 poses x 42 rendered captures, then a calibration (~20 s)
 
 
 def test_graycode_wizard_calibrates_the_synthetic_rig(tmp_path):
@@ -21,7 +21,7 @@ def test_graycode_wizard_calibrates_the_synthetic_rig(tmp_path):
     from ar.synthetic import default_projector
 
     board = Board(DEFAULT_BOARD_SPEC)
-    projector = default_projector().scaled(512, 384)  # 9 + 9 bits: 38 images a pose
+    projector = default_projector()  # 1024 x 768: 42 images a pose
     cam = SyntheticCamera(board, projector=projector)
     source = ProjectedSceneSource(GrayCodeScene(cam), graycode_poses(board, cam.proj_from_cam, 4))
     wizard = GrayCodeWizard(tmp_path, show=source.show, camera=source, projector_size=projector.size, n_poses=4,
@@ -31,7 +31,7 @@ def test_graycode_wizard_calibrates_the_synthetic_rig(tmp_path):
     while not wizard.done:
         step = wizard.run_next()
         assert step.error is None, f"{step.key}: {step.error}"
-    assert source.shown_count == 4 * 39  # the whole sequence per pose, then black
+    assert source.shown_count == 4 * 43  # the whole sequence per pose, then black
     data = json.loads((tmp_path / "projector.json").read_text())
     assert (tmp_path / "camera.json").is_file()
     K = np.array(data["projector"]["camera_matrix"])
