@@ -255,3 +255,31 @@ def scan_view(board: Board, box: Box, proj_from_cam: np.ndarray, distance_m: flo
     t = np.radians(tilt_deg)
     eye = aim + distance_m * np.array([0.0, -np.sin(t), -np.cos(t)])
     return invert(proj_from_cam) @ look_at(eye, aim, np.array([-1.0, 0.0, 0.0]))
+
+
+def height_map_errors(height_map, boxes: Sequence[Box], inset_m: float = 0.004, clear_m: float = 0.01) -> dict:
+    """A scanned height map against the scene's truth: per box, the known cells of its
+    top (``inset_m`` in from its edges) and their median height (mm) and its error; for
+    the table (known cells ``clear_m`` or more from every box) the median and 95th
+    percentile of ``|height|`` (mm), which is 0 on the true table."""
+    xs, ys = height_map.cell_centres()
+    known = height_map.known
+    out: dict = {"boxes": []}
+    table = known.copy()
+    for b in boxes:
+        top = known & (xs > b.x0 + inset_m) & (xs < b.x1 - inset_m) & (ys > b.y0 + inset_m) & (ys < b.y1 - inset_m)
+        h = height_map.heights[top]
+        median = float(np.median(h)) if h.size else float("nan")
+        out["boxes"].append({"height_mm": b.height * 1000, "top_cells": int(top.sum()), "median_mm": median * 1000,
+                             "error_mm": (median - b.height) * 1000})
+        table &= ~((xs > b.x0 - clear_m) & (xs < b.x1 + clear_m) & (ys > b.y0 - clear_m) & (ys < b.y1 + clear_m))
+    t = np.abs(height_map.heights[table]) * 1000
+    out["table"] = {"cells": int(table.sum()), "abs_median_mm": float(np.median(t)) if t.size else float("nan"),
+                    "abs_p95_mm": float(np.percentile(t, 95)) if t.size else float("nan")}
+    return out
+
+
+def boxes_from_truth(truth: dict) -> list[Box]:
+    """The boxes of a ``truth.json`` written by :func:`write_graycode_captures`."""
+    return [Box(float(b["x0"]), float(b["y0"]), float(b["x1"]), float(b["y1"]), float(b["height"]))
+            for b in truth.get("boxes", [])]
