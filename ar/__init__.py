@@ -84,7 +84,7 @@ from ar.geometry import (
     rotation_angle_deg,
     to_rvec_tvec,
 )
-from ar.height_map import HeightMap, HeightMapError
+from ar.height_map import HEIGHT_MAP_FILE, HeightMap, HeightMapError
 from ar.live import LiveStats, LiveTracker
 from ar.pose import (
     PoseEstimate,
@@ -140,7 +140,7 @@ __all__ = [
     "detect_projected_corners", "rig_pose_for_step", "extract_projector_view", "calibrate_projector",
     "write_capture", "calibrate_projector_from_folder", "extrinsics_error",
     # the scanned table (issue 28)
-    "HeightMap", "HeightMapError",
+    "HEIGHT_MAP_FILE", "HeightMap", "HeightMapError",
     # synthetic bench
     "PinholeModel", "default_camera", "default_projector", "default_proj_from_cam", "Degradation",
     "make_table_texture", "SyntheticCamera", "TrajectoryConfig", "handheld_trajectory", "calibration_poses",

@@ -58,6 +58,10 @@ MAX_SIDE_CELLS = 4096
 #: Largest height-map file read (a full 4096^2 grid compresses to far less).
 MAX_FILE_BYTES = 64 * 1024 * 1024
 FORMAT_VERSION = 1
+#: The scanned table's file, beside ``camera.json`` and ``projector.json`` in the
+#: calibration folder (the teacher's profile folder): written by the calibration wizard's
+#: *Scan the table* step, read by the projector stage.
+HEIGHT_MAP_FILE = "table.npz"
 
 
 class HeightMapError(CalibrationError):
@@ -315,5 +319,5 @@ def fill_bounded_holes(heights: np.ndarray, known: np.ndarray,
     return heights, known
 
 
-__all__ = ["DEFAULT_CELL_M", "DEFAULT_MAX_HOLE_CELLS", "DEFAULT_MIN_POINTS", "HeightMap", "HeightMapError",
+__all__ = ["HEIGHT_MAP_FILE", "DEFAULT_CELL_M", "DEFAULT_MAX_HOLE_CELLS", "DEFAULT_MIN_POINTS", "HeightMap", "HeightMapError",
            "fill_bounded_holes"]

@@ -229,6 +229,33 @@ def _run_animation(args: argparse.Namespace) -> int:
     return _finish(args, result, format_summary(result))
 
 
+# ---------------------------------------------------------------------- surface
+SURFACE_DOC = """The scanned table on the synthetic rig (lab/bench/surface.py): the teacher's Scan the
+table step (Gray-code sequence rendered over a table with a 45 mm and a 20 mm box,
+decoded, triangulated, rasterised) against the boxes' true heights; the landing error of
+a character's planted feet on the 45 mm box top in the projector view (tracked pose,
+scanned vs bare table); the edges each path meets (jumped above 40 mm, walked below)."""
+
+
+def _add_surface(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "surface", "scanned box heights, feet landing on a box top, jumps at its edges",
+                SURFACE_DOC, _run_surface, json_default="out/surface_bench.json")
+    p.add_argument("--characters", default="robot", help="comma-separated characters (default robot)")
+    p.add_argument("--plot", type=Path, default=None, help="write the height map and lift figure here (PNG)")
+
+
+def _run_surface(args: argparse.Namespace) -> int:
+    from app.player.animator import CHARACTER_DESIGNS  # deferred: the stage's modules, only for this target
+    from lab.bench.surface import format_summary, run_surface_bench  # deferred: the scan and the stage
+
+    kinds = tuple(c.strip() for c in args.characters.split(",") if c.strip())
+    unknown = [k for k in kinds if k not in CHARACTER_DESIGNS]
+    if not kinds or unknown:
+        raise StoryBeamError(f"--characters: choose from {', '.join(CHARACTER_DESIGNS)} (got {args.characters!r})")
+    result = run_surface_bench(kinds, args.plot, progress_bar("bench surface", "step"))
+    return _finish(args, result, format_summary(result))
+
+
 # ---------------------------------------------------------------------- dtw-kernels
 DTW_KERNELS_DOC = """Nanoseconds per DTW cell for StoryBeam's kernels, with dtaidistance's C code as a
 peer (lab/bench/dtw_kernels.py): one pair of smooth 17-D random walks of --frames frames,
@@ -423,6 +450,7 @@ TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
     "pose-search": _add_pose_search,
     "act-it-out": _add_act_it_out,
     "storybeam-scale": _add_storybeam_scale,
+    "surface": _add_surface,
 }
 
 

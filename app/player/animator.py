@@ -7,7 +7,10 @@ character: the chosen clip (or the first clip of its motion class) from the moti
 library, :func:`retrieval.animation.retarget` onto the ``ar.scene`` design (robot / cat
 / kid), then :func:`retrieval.animation.follow_path` along the path mapped into the scene
 by a :class:`app.player.placement.TablePlacement`: walk and run loop along the path;
-jump, dance and kick, and the hop / spin marks, are one-shots along a walk.
+jump, dance and kick, and the hop / spin marks, are one-shots along a walk. With a
+``ground`` (the scanned table, :func:`ar.scene.scene_ground`; the projector stage only)
+the laid motion then follows the surface (:func:`retrieval.animation.follow_surface`):
+its feet on the boxes it crosses, a jump at an edge higher than a step.
 
 Needs :mod:`ar.scene` only (the character designs are numpy): it runs on the tablet.
 """
@@ -23,7 +26,7 @@ from app.player.placement import PREVIEW_PLACEMENT, TablePlacement, table_to_sce
 from app.story import Character
 from ar.scene import Character as CharacterDesign
 from ar.scene import build_character
-from retrieval.animation import OneShot, TablePath, find_loop, follow_path, retarget
+from retrieval.animation import Ground, OneShot, TablePath, find_loop, follow_path, follow_surface, retarget
 from retrieval.errors import StoryBeamError
 from retrieval.motion import Motion, load_motion
 
@@ -40,12 +43,15 @@ class SceneAnimator:
     """Turns a story character into a retargeted motion laid on its sketched path.
 
     ``placement`` lays the table in the scene (the stage uses a miniature of the table,
-    hence ``character_height_m`` and ``placement`` are parameters). Retargeted clips are
+    hence ``character_height_m`` and ``placement`` are parameters); ``ground``: the
+    surface in the scene frame (``ground(X, Z) -> Y``), None for the bare table. Retargeted clips are
     cached (the same clip is reused across scenes)."""
 
     def __init__(self, clip_files: dict[str, Path], first_of_class: dict[str, str], fps: float = 30.0,
-                 character_height_m: float = CHARACTER_HEIGHT_M, placement: TablePlacement = PREVIEW_PLACEMENT):
+                 character_height_m: float = CHARACTER_HEIGHT_M, placement: TablePlacement = PREVIEW_PLACEMENT,
+                 ground: Ground | None = None):
         self.clip_files = clip_files
+        self.ground = ground
         self.first_of_class = first_of_class
         self.fps = fps
         self.character_height_m = character_height_m
@@ -103,6 +109,8 @@ class SceneAnimator:
             if not one_shots:
                 raise
             result = follow_path(locomotion, path, fps=self.fps, loop=loop)  # the actions did not fit
+        if self.ground is not None:
+            return design, follow_surface(result.motion, self.ground).motion
         return design, result.motion
 
 

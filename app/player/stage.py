@@ -26,6 +26,13 @@ along the board's long side, the child's edge of the table nearest the rig's cam
 Characters stand :data:`STAGE_CHARACTER_HEIGHT_M` tall there (a little larger than the
 scale alone would make them, so they read in the projected light; the path timing is kept).
 
+With a scanned table (:class:`ar.height_map.HeightMap`, ``table.npz`` beside the
+calibration files, from the wizard's *Scan the table* step) the characters follow its
+surface (:func:`retrieval.animation.follow_surface`): their roots are lifted to the
+height under their feet, so the projector draws them at that height in the board frame
+and their feet land on the top of a box they cross; they jump at edges higher than
+:data:`retrieval.animation.STEP_MAX_M`.
+
 A :class:`StageRenderer` owns GL state: create and use it on one thread only (the app's
 :class:`app.player.render_thread.RenderThread` through
 :class:`app.player.app_renderer.AppRenderer`, or the export's worker process).
@@ -48,10 +55,10 @@ from app.paths import MOTIONS_DIR
 from app.player.animator import SceneAnimator
 from app.player.placement import STAGE_PLACEMENT
 from app.story import Scene
-from ar import DEFAULT_BOARD_SPEC, Board, project_points
+from ar import DEFAULT_BOARD_SPEC, HEIGHT_MAP_FILE, Board, HeightMap, project_points
 from ar.errors import RigError
 from ar.rig import ProjectedLight, open_rig
-from ar.scene import SceneDescription, View, add_character, board_from_scene, scaled_model
+from ar.scene import SceneDescription, View, add_character, board_from_scene, scaled_model, scene_ground
 from retrieval.errors import StoryBeamError
 from retrieval.motion import positions
 
@@ -101,13 +108,14 @@ class StageRenderer:
 
     def __init__(self, rig=None, profile_dir: Path | None = None, fps: float = 30.0,
                  motions_dir: Path | None = None, rig_fps: float | None = None, camera: int | str | None = 0,
-                 draw="pyrender"):
+                 draw="pyrender", height_map: HeightMap | None = None):
         """``draw``: who draws the light -- ``"pyrender"`` (headless, the MP4 export), a
         callable ``SceneDescription -> RGB``, or None: the caller draws
         :attr:`StageFrame.description` (the app, with Kivy GL on its UI thread).
         ``fps``: the animation's frame rate; ``rig_fps``: how often the rig is sampled
         (one call of :meth:`render` = one rig frame; default ``fps``); ``camera``: the
-        camera source :func:`open_rig` tries when no ``rig`` is given."""
+        camera source :func:`open_rig` tries when no ``rig`` is given; ``height_map``: the
+        scanned table (default: ``table.npz`` in ``profile_dir`` when there is one)."""
         self.board = Board(DEFAULT_BOARD_SPEC)
         self.fps = fps
         self.rig_fps = rig_fps or fps
@@ -119,13 +127,20 @@ class StageRenderer:
         self.light_model = model
         self.draw = draw
         self._pyrender = None  # made on the first frame drawn with draw="pyrender"
+        self.problems: list[str] = []
+        if height_map is None and profile_dir is not None and (Path(profile_dir) / HEIGHT_MAP_FILE).is_file():
+            try:
+                height_map = HeightMap.load(Path(profile_dir) / HEIGHT_MAP_FILE)
+            except StoryBeamError as exc:  # the stage plays on the bare table; the teacher can scan again
+                log.warning("scanned table not used: %s", exc)
+        self.height_map = height_map
+        ground = scene_ground(height_map, self.board) if height_map is not None else None
         self.animator = SceneAnimator.from_library(motions_dir or MOTIONS_DIR, fps=fps,
                                                    character_height_m=STAGE_CHARACTER_HEIGHT_M,
-                                                   placement=STAGE_PLACEMENT)
+                                                   placement=STAGE_PLACEMENT, ground=ground)
         self._key: str | None = None
         self._cast: list = []  # (design, (F, P, 4, 4) part poses) per character on stage
         self._hips_tracks: list = []
-        self.problems: list[str] = []
         self._light: ProjectedLight | None = None  # what the projector showed last (None: nothing yet)
 
     @property

@@ -5,7 +5,9 @@
 * :mod:`app.services.thumbnails` -- stick-figure thumbnails of clips, made on a
   background thread;
 * :mod:`app.services.calibration_wizard` -- the teacher's camera calibration as steps the
-  UI runs one at a time (board, capture, solve, save), done by ``ar``;
+  UI runs one at a time (board, capture, solve, save, scan the table), done by ``ar``;
+* :mod:`app.services.table_scan` -- *Scan the table*: the Gray-code sequence projected and
+  captured, scanned into a height map stored beside the calibration (``table.npz``);
 * :mod:`app.services.act_it_out` -- "Act it out": a camera take tracked into body
   landmarks (``ar.body``), its verdict (enough of the body seen?) and the nearest motions
   (``retrieval.library.ActSearch``); no frame is kept;

@@ -7,12 +7,21 @@ board detection and ``ar.calibration.calibrate_camera``. Without a camera (this
 development machine, a test) the capture step uses ``ar.synthetic.SyntheticCamera``
 so the whole chain still runs end to end.
 
+The last step, *Scan the table* (:mod:`app.services.table_scan`), projects the Gray-code
+sequence over the table with its objects, scans it into a height map and stores it
+beside the calibration (``table.npz``), where the projector stage finds it. A real rig
+gives the wizard ``scan_capture`` (show each pattern in the projector window, keep a
+camera frame: :func:`app.services.table_scan.capture_sequence`) and the Gray-code
+``projector.json`` in ``out_dir``; the synthetic wizard (no camera) scans the synthetic
+rig's table with boxes, a real camera without ``scan_capture`` is refused. ``scan(captures, calibration) -> HeightMap`` is replaceable (tests).
+
 :class:`GrayCodeWizard` is the projector's Gray-code mode (issue 28): for each board pose
 it shows the sequence (``ar.structured_light.patterns``) through the projector window's
 callback, captures each image through the camera source, and decodes it at once (so a
 pose the projector does not light, or where the board is not seen, is retried on the
 spot); then it calibrates camera, projector and their rigid transform
-(``ar.structured_light.calibrate``) and saves ``projector.json`` (and ``camera.json``).
+(``ar.structured_light.calibrate``), saves ``projector.json`` (and ``camera.json``) and
+scans the table at the last pose with the same projector window and camera.
 """
 from __future__ import annotations
 
@@ -38,7 +47,7 @@ class CalibrationStep:
 
 @dataclass
 class CalibrationWizard:
-    """Board -> capture views -> solve the camera -> save ``camera.json``."""
+    """Board -> capture views -> solve the camera -> save ``camera.json`` -> scan the table."""
 
     out_dir: Path
     camera_index: int | None = None  # None: synthetic camera
@@ -46,6 +55,10 @@ class CalibrationWizard:
     board_spec: str | None = None
     steps: list[CalibrationStep] = field(default_factory=list)
     current: int = 0
+    #: the rig's Gray-code captures at its current pose (None: the synthetic rig's table)
+    scan_capture: Callable[[], list] | None = None
+    #: captures + calibration -> HeightMap (default: decode, triangulate, rasterise)
+    scan: Callable[[list, object], object] | None = None
 
     def __post_init__(self) -> None:
         self._board = None
@@ -56,6 +69,7 @@ class CalibrationWizard:
             CalibrationStep("capture", self._capture),
             CalibrationStep("solve", self._solve),
             CalibrationStep("save", self._save),
+            CalibrationStep("scan", self._scan_table),
         ]
 
     @property
@@ -100,16 +114,34 @@ class CalibrationWizard:
         path = self._calibration.save(Path(self.out_dir) / "camera.json")
         return str(path)
 
+    def _scan_table(self) -> str:
+        from app.services import table_scan  # deferred: OpenCV and the structured-light scan, when the teacher scans
+
+        if self.scan_capture is None:
+            if self.camera_index is not None:  # a real camera but no projector to show the patterns
+                raise StoryBeamError("the projector must show the scan's patterns: connect it as a second display")
+            captures, calibration = table_scan.synthetic_scan(self._board)
+        else:
+            from ar.structured_light.calibrate import GrayCodeCalibration  # deferred: as above
+            calibration = GrayCodeCalibration.load(Path(self.out_dir) / "projector.json")
+            captures = self.scan_capture()
+        scan = self.scan or (lambda caps, cal: table_scan.scan_captures(caps, cal, self._board))
+        height_map = scan(captures, calibration)
+        table_scan.save_scan(height_map, self.out_dir)
+        return table_scan.describe_scan(height_map)
+
 
 @dataclass
 class GrayCodeWizard(CalibrationWizard):
     """Board -> one step per board pose (show the sequence, capture, decode) -> solve ->
-    save ``projector.json`` (with the camera's calibration) and ``camera.json``.
+    save ``projector.json`` (with the camera's calibration) and ``camera.json`` -> scan the
+    table (:meth:`CalibrationWizard._scan_table`, captured the same way at the last pose).
 
     ``show`` is the projector window's callback (a projector-resolution image to show
     full screen until the next call); ``camera`` the rig's camera source. A live camera
-    delivers frames some time after the projector changes, so ``settle_frames`` frames
-    are dropped after each change before one is kept. ``camera_file``: a ``camera.json``
+    delivers frames some time after the projector changes, so after each change the
+    wizard waits ``settle_s`` and drops ``settle_frames`` frames before it keeps one
+    (:func:`app.services.table_scan.capture_sequence`). ``camera_file``: a ``camera.json``
     to keep the camera fixed (else the camera is calibrated from the same poses).
     ``before_pose(i)`` is called before pose ``i`` is captured (the synthetic rig moves
     its board there; with a real rig the teacher moves it and taps *next*).
@@ -120,6 +152,7 @@ class GrayCodeWizard(CalibrationWizard):
     projector_size: tuple[int, int] = (1024, 768)
     n_poses: int = 5
     settle_frames: int = 2
+    settle_s: float = 0.2
     camera_file: Path | None = None
     before_pose: Callable[[int], None] | None = None
 
@@ -130,29 +163,38 @@ class GrayCodeWizard(CalibrationWizard):
         self.steps = [CalibrationStep("board", self._make_board)]
         self.steps += [CalibrationStep(f"graycode_pose_{i + 1}", lambda i=i: self._capture_pose(i))
                        for i in range(self.n_poses)]
-        self.steps += [CalibrationStep("solve", self._solve), CalibrationStep("save", self._save)]
+        self.steps += [CalibrationStep("solve", self._solve), CalibrationStep("save", self._save),
+                       CalibrationStep("scan", self._scan_table)]
+        if self.scan_capture is None and self.show is not None and self.camera is not None:
+            self.scan_capture = self._capture_sequence
+
+    def _capture_sequence(self) -> list:
+        """The camera's frames of the whole Gray-code sequence, then black on the projector."""
+        from app.services.table_scan import capture_sequence  # deferred: OpenCV, when the teacher calibrates
+        from ar.errors import CalibrationError  # deferred: as above
+        from ar.structured_light.patterns import graycode_sequence  # deferred: as above
+
+        if self.show is None or self.camera is None:
+            raise CalibrationError("the Gray-code mode needs the projector window and the camera")
+        camera = self.camera
+
+        def read():
+            frame = camera.read()
+            return None if frame is None else frame.image
+
+        sequence = graycode_sequence(self.projector_size)
+        frames = capture_sequence(sequence, self.show, read, self.settle_s, self.settle_frames)
+        self.show(sequence[-1])  # black: the show is over
+        return frames
 
     def _capture_pose(self, i: int) -> str:
         from ar.errors import CalibrationError  # deferred: OpenCV, when the teacher calibrates
         from ar.structured_light.calibrate import find_board  # deferred: as above
         from ar.structured_light.decode import decode_images  # deferred: as above
-        from ar.structured_light.patterns import graycode_sequence  # deferred: as above
 
-        if self.show is None or self.camera is None:
-            raise CalibrationError("the Gray-code mode needs the projector window and the camera")
         if self.before_pose is not None:
             self.before_pose(i)
-        frames = []
-        sequence = graycode_sequence(self.projector_size)
-        for image in sequence:
-            self.show(image)
-            frame = None
-            for _ in range(self.settle_frames + 1):
-                frame = self.camera.read()
-                if frame is None:
-                    raise CalibrationError(f"{self.camera.name} stopped sending frames")
-            frames.append(frame.image)
-        self.show(sequence[-1])  # black: the show is over
+        frames = self._capture_sequence()
         decoded = decode_images(frames, self.projector_size, name=f"pose_{i + 1:02d}")
         if find_board(decoded, self._board) is None:
             raise CalibrationError("the board is not in view: move it under the projector's light and try again")

@@ -12,6 +12,7 @@ import random
 import threading
 from pathlib import Path
 
+import numpy as np
 from kivy.app import App
 from kivy.clock import Clock
 from kivy.metrics import dp
@@ -39,6 +40,8 @@ _STEP_TEXT = {
     "capture": {"en": "2. Capture views of the board", "ja": "2. ボードを いろいろな むきで うつす"},
     "solve": {"en": "3. Compute the camera calibration", "ja": "3. カメラの けいさん"},
     "save": {"en": "4. Save", "ja": "4. ほぞん"},
+    "scan": {"en": "5. Scan the table: put the boxes on it, hold the rig still",
+             "ja": "5. つくえを スキャン: はこを おいて、リグを うごかさない"},
 }
 
 
@@ -502,12 +505,42 @@ class TeacherScreen(Screen):
         self._report("...")
 
 
+def rig_scan_capture(app):
+    """The *Scan the table* step's capture on a real rig, or None (the synthetic rig's
+    table): when the profile holds a Gray-code ``projector.json``, the rig's camera is a
+    device and the projector window opens, show each Gray-code pattern there and keep a
+    camera frame (:func:`app.services.table_scan.capture_sequence`)."""
+    choice = str(getattr(app.renderer_factory, "camera", "") or "")
+    calibration = Path(app.profile_dir) / "projector.json"
+    if not (choice.isdigit() and calibration.is_file()):
+        return None
+    window = app.open_projector_window()
+    if window is None:
+        return None
+
+    def capture() -> list:
+        from ar import open_camera_source  # deferred: OpenCV, when the teacher scans
+        from ar.structured_light.calibrate import GrayCodeCalibration  # deferred: as above
+        from ar.structured_light.patterns import graycode_sequence  # deferred: as above
+        from app.services.table_scan import capture_sequence  # deferred: as above
+
+        size = tuple(GrayCodeCalibration.load(calibration).projector.image_size)
+        source = open_camera_source(choice, paced=False)
+        try:
+            return capture_sequence(graycode_sequence(size), window.show,
+                                    lambda: (frame := source.read()) and frame.image)
+        finally:
+            source.close()
+            window.show(np.zeros((8, 8, 3), np.uint8))  # the projector goes dark again
+    return capture
+
+
 class CalibrationScreen(Screen):
     """Step-by-step calibration; each step runs on a worker thread."""
 
     def on_pre_enter(self, *args):
         app = App.get_running_app()
-        self.wizard = CalibrationWizard(Path(app.profile_dir))
+        self.wizard = CalibrationWizard(Path(app.profile_dir), scan_capture=rig_scan_capture(app))
         self.refresh()
 
     def refresh(self) -> None:

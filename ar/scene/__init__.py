@@ -39,6 +39,7 @@ from ar.scene.description import (
     overhead_view,
     projector_from_scene,
     scaled_model,
+    scene_ground,
     scene_to_board_points,
 )
 from ar.scene.mesh import MeshData, box, capsule, concatenate, ellipsoid, ribbon, sphere
@@ -51,7 +52,7 @@ __all__ = [
     "build_character", "rest_motion",
     # description
     "CV_TO_GL", "board_from_scene", "scene_to_board_points", "board_to_scene_points", "projector_from_scene",
-    "scaled_model", "View", "Lighting", "DrawItem", "SceneDescription", "overhead_view",
+    "scaled_model", "scene_ground", "View", "Lighting", "DrawItem", "SceneDescription", "overhead_view",
     # content
     "TABLE_ROUGHNESS", "table_mesh", "add_character", "add_mesh",
 ]

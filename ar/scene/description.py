@@ -32,6 +32,7 @@ import numpy as np
 
 from ar.boards import Board
 from ar.geometry import invert, look_at, make_transform, scale_intrinsics
+from ar.height_map import HeightMap
 from ar.scene.mesh import MeshData
 from ar.synthetic import PinholeModel
 
@@ -59,6 +60,18 @@ def board_to_scene_points(points_board: np.ndarray, board: Board) -> np.ndarray:
     """(N,3) board-frame points -> scene-frame points."""
     T = invert(board_from_scene(board))
     return np.asarray(points_board, np.float64) @ T[:3, :3].T + T[:3, 3]
+
+
+def scene_ground(height_map: HeightMap, board: Board):
+    """The scanned table as the animation's ground: ``ground(X, Z) -> Y`` in the scene
+    frame (arrays of any shape), the height map's height at board ``(x, y) = (X, Z) +``
+    the board centre; 0 (the table) where the scan knows nothing
+    (:func:`retrieval.animation.surface.follow_surface` takes it)."""
+    cx, cy = (float(v) for v in board.centre[:2])
+
+    def ground(x_scene: np.ndarray, z_scene: np.ndarray) -> np.ndarray:
+        return np.asarray(height_map.height_at(np.asarray(x_scene) + cx, np.asarray(z_scene) + cy), np.float64)
+    return ground
 
 
 def projector_from_scene(T_cam_from_board: np.ndarray, T_proj_from_cam: np.ndarray, board: Board) -> np.ndarray:

@@ -1,6 +1,6 @@
 """Character animation from library motions: retargeting onto a character's skeleton,
-foot locking, laying a motion along a sketched path, transitions and loops, and the
-metrics that judge them. Independent of the search."""
+foot locking, laying a motion along a sketched path and onto a scanned surface,
+transitions and loops, and the metrics that judge them. Independent of the search."""
 from __future__ import annotations
 
 from retrieval.animation.foot_lock import lock_feet, two_bone_knee
@@ -31,6 +31,14 @@ from retrieval.animation.retarget import (
     skeleton_leg_length,
     sole_level,
     sole_points,
+)
+from retrieval.animation.surface import (
+    STEP_MAX_M,
+    Ground,
+    SurfaceEdge,
+    SurfaceResult,
+    find_edges,
+    follow_surface,
 )
 from retrieval.animation.transitions import (
     LoopPoints,
@@ -86,4 +94,10 @@ __all__ = [
     "foot_skate",
     "foot_skate_cm_per_m",
     "transition_cost",
+    "STEP_MAX_M",
+    "Ground",
+    "SurfaceEdge",
+    "SurfaceResult",
+    "find_edges",
+    "follow_surface",
 ]

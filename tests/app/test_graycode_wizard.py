@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-pytestmark = pytest.mark.slow  # 4 poses x 42 rendered captures, then a calibration (~20 s)
+pytestmark = pytest.mark.slow  # 4 poses x 42 rendered captures, then a calibration and a scan (~25 s)
 
 
 def test_graycode_wizard_calibrates_the_synthetic_rig(tmp_path):
@@ -25,15 +25,18 @@ def test_graycode_wizard_calibrates_the_synthetic_rig(tmp_path):
     cam = SyntheticCamera(board, projector=projector)
     source = ProjectedSceneSource(GrayCodeScene(cam), graycode_poses(board, cam.proj_from_cam, 4))
     wizard = GrayCodeWizard(tmp_path, show=source.show, camera=source, projector_size=projector.size, n_poses=4,
-                            settle_frames=0, before_pose=lambda i: setattr(source, "pose_index", i))
+                            settle_frames=0, settle_s=0.0, before_pose=lambda i: setattr(source, "pose_index", i))
     assert [s.key for s in wizard.steps] == ["board", "graycode_pose_1", "graycode_pose_2", "graycode_pose_3",
-                                             "graycode_pose_4", "solve", "save"]
+                                             "graycode_pose_4", "solve", "save", "scan"]
     while not wizard.done:
         step = wizard.run_next()
         assert step.error is None, f"{step.key}: {step.error}"
-    assert source.shown_count == 4 * 43  # the whole sequence per pose, then black
+    assert source.shown_count == 5 * 43  # the whole sequence per pose and for the scan, then black
     data = json.loads((tmp_path / "projector.json").read_text())
     assert (tmp_path / "camera.json").is_file()
+    from ar import HEIGHT_MAP_FILE, HeightMap
+    table = HeightMap.load(tmp_path / HEIGHT_MAP_FILE)  # the table scanned at the last pose: the bare board
+    assert table.known_fraction > 0.2 and np.median(np.abs(table.heights[table.known])) < 0.001
     K = np.array(data["projector"]["camera_matrix"])
     assert abs(K[0, 0] / projector.K[0, 0] - 1) < 0.01
     assert np.linalg.norm(np.array(data["T"]) - cam.proj_from_cam[:3, 3]) < 0.002
@@ -54,7 +57,7 @@ def test_graycode_wizard_keeps_the_error_when_the_board_is_out_of_view(tmp_path)
     away = look_at(np.array([2.0, 2.0, -0.5]), np.array([2.0, 2.0, 0.0]), np.array([-1.0, 0.0, 0.0]))
     source = ProjectedSceneSource(GrayCodeScene(cam), [away])
     wizard = GrayCodeWizard(tmp_path, show=source.show, camera=source, projector_size=projector.size, n_poses=3,
-                            settle_frames=0)
+                            settle_frames=0, settle_s=0.0)
     assert wizard.run_next().error is None
     step = wizard.run_next()
     assert "board is not in view" in step.error and wizard.current == 1  # the teacher can retry this pose

@@ -145,11 +145,12 @@ def test_teacher_pin_pad_sets_then_checks_the_pin(tmp_path):
     r, out = _drive(tmp_path, "teacher")
     assert r["after_tap"] == "pin"
     assert r["pin_set"] and r["after_first_pin"] == "teacher"
-    # the calibration wizard, four "next" taps: board, synthetic views, camera solve, save
-    assert [k for k, _res, _err in r["calibration"]] == ["board", "capture", "solve", "save"]
+    # the calibration wizard, five "next" taps: board, synthetic views, camera solve, save,
+    # scan the (synthetic) table
+    assert [k for k, _res, _err in r["calibration"]] == ["board", "capture", "solve", "save", "scan"]
     assert all(res and not err for _k, res, err in r["calibration"]), r["calibration"]
-    assert r["calibration_taps"] == 4
-    assert (tmp_path / "camera.json").is_file()
+    assert r["calibration_taps"] == 5
+    assert (tmp_path / "camera.json").is_file() and (tmp_path / "table.npz").is_file()
     # exports by touch: packages, videos, activity log (switched on first), then present all
     exports = Path(r["export_dir"])
     assert r["log_on"]

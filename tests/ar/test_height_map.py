@@ -8,27 +8,13 @@ import numpy as np
 import pytest
 
 from ar.height_map import MAX_SIDE_CELLS, HeightMap, HeightMapError, fill_bounded_holes
+from tests.support.table_scan import scan_points
 
-RNG = np.random.default_rng(28)
 BOX = (0.10, 0.16, 0.05, 0.09, 0.045)  # x0, x1, y0, y1, height (m): a pencil case
 
 
-def _table_points(step=0.0007, noise=0.0003, extent=(0.0, 0.25, 0.0, 0.15), box=BOX, outliers=0.01):
-    """Board-frame points of a table with one box on it, as a scan sees them: a jittered grid (a camera
-    pixel every ~0.7 mm), Gaussian height noise, and a share of wild outliers."""
-    xs = np.arange(extent[0] + step / 2, extent[1], step)
-    ys = np.arange(extent[2] + step / 2, extent[3], step)
-    gx, gy = np.meshgrid(xs, ys)
-    x = gx.ravel() + RNG.uniform(-step / 3, step / 3, gx.size)
-    y = gy.ravel() + RNG.uniform(-step / 3, step / 3, gx.size)
-    z = np.zeros_like(x)
-    if box is not None:
-        on = (x >= box[0]) & (x < box[1]) & (y >= box[2]) & (y < box[3])
-        z[on] = box[4]
-    z += RNG.normal(0, noise, z.size)
-    wild = RNG.random(z.size) < outliers
-    z[wild] += RNG.uniform(-0.05, 0.05, wild.sum())
-    return np.column_stack([x, y, -z])  # board frame: +z points into the table
+def _table_points(extent=(0.0, 0.25, 0.0, 0.15), outliers=0.01):
+    return scan_points([BOX], extent, outliers=outliers)
 
 
 def test_from_points_recovers_a_box_top_and_the_table_despite_outliers():

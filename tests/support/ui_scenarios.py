@@ -186,7 +186,7 @@ def teacher_steps(app):
 
     def run_wizard():
         wizard = calib().wizard
-        if wizard.done or state["polls"] > 600:
+        if wizard.done or state["polls"] > 2000:  # the table scan renders 42 synthetic frames
             return None
         state["polls"] += 1
         if not getattr(calib(), "_busy", False):
