@@ -41,7 +41,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                       help="--graycode: min pattern-inverse difference for a reliable bit (default 5, OpenCV's)")
     proj.add_argument("--window", type=int, default=None,
                       help="--graycode: local homography window, pixels either side of a corner (default 24)")
-    proj.add_argument("--poses", type=int, default=5, help="--graycode --synthetic: board poses to render (default 5)")
+    proj.add_argument("--truth", type=Path, default=None,
+                      help="--graycode: truth.json of synthetic captures; print the errors against it "
+                           "(--synthetic does so by itself)")
+    proj.add_argument("--poses", type=int, default=5, help="--graycode --synthetic: board poses to render (default 5), "
+                                                                     "then one scan pose (board and a 30 mm box)")
     proj.add_argument("--camera", type=Path, help="camera.json (with --synthetic: optional, else calibrated first)")
     proj.add_argument("--board", default=None, help="board spec (default: ChArUco default board)")
     proj.add_argument("--synthetic", action="store_true", help="drive the guided sequence on the synthetic rig")
@@ -149,10 +153,10 @@ def run_projector_graycode(args: argparse.Namespace, board) -> int:
     if args.images is not None:
         raise StoryBeamError("give either --images (guided captures) or --graycode (Gray-code captures), not both")
     camera = CameraCalibration.load(args.camera) if args.camera else None
-    truth = None
+    truth_path = args.truth
     if args.synthetic:
         # deferred: the synthetic rig only for --synthetic
-        from ar.structured_light.synthetic import (GrayCodeScene, default_scan_box, graycode_poses,
+        from ar.structured_light.synthetic import (GrayCodeScene, default_scan_box, graycode_poses, scan_view,
                                                    write_graycode_captures)
         from ar.synthetic import SyntheticCamera, default_projector  # deferred: as above
 
@@ -160,10 +164,11 @@ def run_projector_graycode(args: argparse.Namespace, board) -> int:
         if args.projector_size:
             projector = projector.scaled(*parse_projector_size(args.projector_size))
         cam = SyntheticCamera(board, projector=projector)
-        scene = GrayCodeScene(cam, [default_scan_box(board)])
-        write_graycode_captures(args.graycode, scene, graycode_poses(board, cam.proj_from_cam, args.poses),
-                                progress=print)
-        size, truth = projector.size, cam
+        box = default_scan_box(board)
+        scene = GrayCodeScene(cam, [box])
+        poses = graycode_poses(board, cam.proj_from_cam, args.poses) + [scan_view(board, box, cam.proj_from_cam)]
+        write_graycode_captures(args.graycode, scene, poses, progress=print, scan_pose=len(poses) - 1)
+        size, truth_path = projector.size, truth_path or args.graycode / "truth.json"
         print(f"synthetic captures written to {args.graycode}")
     elif not args.projector_size:
         raise StoryBeamError("--projector-size WxH is required with --graycode (the resolution the patterns were made for)")
@@ -189,9 +194,28 @@ def run_projector_graycode(args: argparse.Namespace, board) -> int:
         print(f"  {name:<15} {e['corners']:>7}  {e['camera_px']:>9.3f}  {e['projector_px']:>12.3f}")
     for name, why in calib.rejected_poses.items():
         print(f"  rejected {name}: {why}")
-    if truth is not None:
-        Kt, Tt = truth.projector.K, truth.proj_from_cam
-        print(f"vs truth: projector fx {100 * (Kp[0, 0] / Kt[0, 0] - 1):+.3f} %, fy {100 * (Kp[1, 1] / Kt[1, 1] - 1):+.3f} %; "
-              f"T {np.linalg.norm(T - Tt[:3, 3]) * 1000:.3f} mm; R {rotation_angle_deg(calib.R @ Tt[:3, :3].T):.4f} deg")
+    if truth_path is not None:
+        _print_truth_errors(truth_path, calib)
     print(f"wrote {args.out}")
     return 0
+
+
+def _print_truth_errors(path: Path, calib) -> None:
+    """The Gray-code calibration against a synthetic capture's ``truth.json``."""
+    import json  # deferred: only with a truth file
+
+    import numpy as np  # deferred: as above
+
+    from ar.geometry import rotation_angle_deg  # deferred: as above
+
+    try:
+        truth = json.loads(Path(path).read_text())
+        Kt = np.array(truth["projector"]["camera_matrix"], float)
+        Kc = np.array(truth["camera"]["camera_matrix"], float)
+        Rt, Tt = np.array(truth["R"], float), np.array(truth["T"], float)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise StoryBeamError(f"{path}: not a synthetic capture's truth file ({exc})") from None
+    Kp, K = calib.projector.camera_matrix, calib.camera.camera_matrix
+    print(f"vs truth: projector fx {100 * (Kp[0, 0] / Kt[0, 0] - 1):+.3f} %, fy {100 * (Kp[1, 1] / Kt[1, 1] - 1):+.3f} %; "
+          f"camera fx {100 * (K[0, 0] / Kc[0, 0] - 1):+.3f} %; T {np.linalg.norm(calib.T - Tt) * 1000:.3f} mm; "
+          f"R {rotation_angle_deg(calib.R @ Rt.T):.4f} deg")

@@ -28,6 +28,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--white-threshold", type=float, default=None, help="min pattern-inverse difference (default 5)")
     p.add_argument("--smooth", type=int, default=None, help="sub-pixel fit window, camera pixels (default 7; 1: off)")
     p.add_argument("--cell-mm", type=float, default=2.0, help="height map cell size in mm (default 2)")
+    p.add_argument("--picture", type=Path, default=None,
+                   help="PNG: the capture tinted by height beside the height map seen from above")
+    p.add_argument("--truth", type=Path, default=None,
+                   help="truth.json of synthetic captures (calibrate projector --graycode DIR --synthetic): "
+                        "also report the height map's errors against it")
     p.set_defaults(func=run)
 
 
@@ -36,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from ar.structured_light.calibrate import GrayCodeCalibration  # deferred: as above
     from ar.structured_light.decode import (DEFAULT_BLACK_THRESHOLD, DEFAULT_WHITE_THRESHOLD,  # deferred: as above
                                             decode_pose_folder)
-    from ar.structured_light.scan import DEFAULT_SMOOTH_PX, scan_pose, write_ply  # deferred: as above
+    from ar.structured_light.scan import DEFAULT_SMOOTH_PX, scan_picture, scan_pose, write_ply  # deferred: as above
 
     if not args.cell_mm > 0:
         raise StoryBeamError(f"--cell-mm must be positive, got {args.cell_mm}")
@@ -61,5 +66,36 @@ def run(args: argparse.Namespace) -> int:
         print(f"height map {hm.shape[1]}x{hm.shape[0]} cells of {hm.cell_m * 1000:g} mm, "
               f"{100 * hm.known_fraction:.0f} % known -> {hm_path}")
         report["height_map"]["path"] = str(hm_path)
+        if args.truth is not None:
+            report["vs_truth"] = _truth_errors(args.truth, hm)
+    if args.picture is not None:
+        import cv2  # deferred: OpenCV, as above
+
+        args.picture.parent.mkdir(parents=True, exist_ok=True)
+        if not cv2.imwrite(str(args.picture), scan_picture(decoded, scan)):
+            raise StoryBeamError(f"{args.picture}: cannot write the picture (a .png name?)")
+        print(f"picture -> {args.picture}")
     emit_json_report(args.json, report)
     return 0
+
+
+def _truth_errors(path: Path, height_map) -> dict:
+    """The height map against a synthetic capture's truth (boxes and table), printed."""
+    import json  # deferred: only with --truth
+
+    from ar.structured_light.synthetic import boxes_from_truth, height_map_errors  # deferred: only with --truth
+
+    try:
+        truth = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise StoryBeamError(f"{path}: cannot read the truth file: {exc}") from None
+    if not isinstance(truth, dict):
+        raise StoryBeamError(f"{path}: expected a JSON object")
+    errors = height_map_errors(height_map, boxes_from_truth(truth))
+    for b in errors["boxes"]:
+        print(f"vs truth: box {b['height_mm']:.1f} mm tall -> median {b['median_mm']:.2f} mm over {b['top_cells']} "
+              f"cells of its top (error {b['error_mm']:+.2f} mm)")
+    t = errors["table"]
+    print(f"vs truth: table |height| median {t['abs_median_mm']:.2f} mm, 95th percentile {t['abs_p95_mm']:.2f} mm "
+          f"over {t['cells']} cells")
+    return errors

@@ -14,14 +14,27 @@ gives the wizard ``scan_capture`` (show each pattern in the projector window, ke
 camera frame: :func:`app.services.table_scan.capture_sequence`) and the Gray-code
 ``projector.json`` in ``out_dir``; the synthetic wizard (no camera) scans the synthetic
 rig's table with boxes, a real camera without ``scan_capture`` is refused. ``scan(captures, calibration) -> HeightMap`` is replaceable (tests).
+
+:class:`GrayCodeWizard` is the projector's Gray-code mode (issue 28): for each board pose
+it shows the sequence (``ar.structured_light.patterns``) through the projector window's
+callback, captures each image through the camera source, and decodes it at once (so a
+pose the projector does not light, or where the board is not seen, is retried on the
+spot); then it calibrates camera, projector and their rigid transform
+(``ar.structured_light.calibrate``), saves ``projector.json`` (and ``camera.json``) and
+scans the table at the last pose with the same projector window and camera.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from retrieval.errors import StoryBeamError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from ar.camera_sources import CameraSource
 
 
 @dataclass
@@ -116,3 +129,91 @@ class CalibrationWizard:
         height_map = scan(captures, calibration)
         table_scan.save_scan(height_map, self.out_dir)
         return table_scan.describe_scan(height_map)
+
+
+@dataclass
+class GrayCodeWizard(CalibrationWizard):
+    """Board -> one step per board pose (show the sequence, capture, decode) -> solve ->
+    save ``projector.json`` (with the camera's calibration) and ``camera.json`` -> scan the
+    table (:meth:`CalibrationWizard._scan_table`, captured the same way at the last pose).
+
+    ``show`` is the projector window's callback (a projector-resolution image to show
+    full screen until the next call); ``camera`` the rig's camera source. A live camera
+    delivers frames some time after the projector changes, so after each change the
+    wizard waits ``settle_s`` and drops ``settle_frames`` frames before it keeps one
+    (:func:`app.services.table_scan.capture_sequence`). ``camera_file``: a ``camera.json``
+    to keep the camera fixed (else the camera is calibrated from the same poses).
+    ``before_pose(i)`` is called before pose ``i`` is captured (the synthetic rig moves
+    its board there; with a real rig the teacher moves it and taps *next*).
+    """
+
+    show: Callable[["np.ndarray"], None] | None = None
+    camera: "CameraSource | None" = None
+    projector_size: tuple[int, int] = (1024, 768)
+    n_poses: int = 5
+    settle_frames: int = 2
+    settle_s: float = 0.2
+    camera_file: Path | None = None
+    before_pose: Callable[[int], None] | None = None
+
+    def __post_init__(self) -> None:
+        self._board = None
+        self._poses: list[Any] = []
+        self._calibration = None
+        self.steps = [CalibrationStep("board", self._make_board)]
+        self.steps += [CalibrationStep(f"graycode_pose_{i + 1}", lambda i=i: self._capture_pose(i))
+                       for i in range(self.n_poses)]
+        self.steps += [CalibrationStep("solve", self._solve), CalibrationStep("save", self._save),
+                       CalibrationStep("scan", self._scan_table)]
+        if self.scan_capture is None and self.show is not None and self.camera is not None:
+            self.scan_capture = self._capture_sequence
+
+    def _capture_sequence(self) -> list:
+        """The camera's frames of the whole Gray-code sequence, then black on the projector."""
+        from app.services.table_scan import capture_sequence  # deferred: OpenCV, when the teacher calibrates
+        from ar.errors import CalibrationError  # deferred: as above
+        from ar.structured_light.patterns import graycode_sequence  # deferred: as above
+
+        if self.show is None or self.camera is None:
+            raise CalibrationError("the Gray-code mode needs the projector window and the camera")
+        camera = self.camera
+
+        def read():
+            frame = camera.read()
+            return None if frame is None else frame.image
+
+        sequence = graycode_sequence(self.projector_size)
+        frames = capture_sequence(sequence, self.show, read, self.settle_s, self.settle_frames)
+        self.show(sequence[-1])  # black: the show is over
+        return frames
+
+    def _capture_pose(self, i: int) -> str:
+        from ar.errors import CalibrationError  # deferred: OpenCV, when the teacher calibrates
+        from ar.structured_light.calibrate import find_board  # deferred: as above
+        from ar.structured_light.decode import decode_images  # deferred: as above
+
+        if self.before_pose is not None:
+            self.before_pose(i)
+        frames = self._capture_sequence()
+        decoded = decode_images(frames, self.projector_size, name=f"pose_{i + 1:02d}")
+        if find_board(decoded, self._board) is None:
+            raise CalibrationError("the board is not in view: move it under the projector's light and try again")
+        self._poses = [p for p in self._poses if p.name != decoded.name] + [decoded]
+        return f"pose {i + 1}: {100 * decoded.mask.mean():.0f} % of the camera's pixels decoded"
+
+    def _solve(self) -> str:
+        from ar.calibration import CameraCalibration  # deferred: OpenCV, when the teacher calibrates
+        from ar.structured_light.calibrate import calibrate_graycode  # deferred: as above
+
+        camera = CameraCalibration.load(self.camera_file) if self.camera_file else None
+        self._calibration = calibrate_graycode(self._poses, self._board, self.projector_size, camera)
+        c = self._calibration
+        return (f"projector RMS {c.rms:.2f} px over {len(c.per_pose)} poses; "
+                f"projector {1000 * float((c.T ** 2).sum() ** 0.5):.0f} mm from the camera")
+
+    def _save(self) -> str:
+        out = Path(self.out_dir)
+        path = self._calibration.save(out / "projector.json")
+        if self.camera_file is None:
+            self._calibration.camera.save(out / "camera.json")
+        return str(path)

@@ -45,8 +45,10 @@ from ar.structured_light.decode import (DEFAULT_BLACK_THRESHOLD, DEFAULT_WHITE_T
 
 DEFAULT_WINDOW_PX = 24
 MIN_WINDOW_PIXELS = 40
-#: projector model: k1, k2, p1, p2 (k3 is fixed: a planar board in a few poses cannot separate it)
+#: camera and projector model: k1, k2, p1, p2 (k3 is fixed: a planar board in a few poses cannot
+#: separate it, and a wild k3 bends the scan far from the board)
 PROJECTOR_FLAGS = cv2.CALIB_FIX_K3
+CAMERA_FLAGS = cv2.CALIB_FIX_K3
 
 
 @dataclass
@@ -209,7 +211,8 @@ def calibrate_graycode(poses: Sequence[DecodedPose], board: Board, projector_siz
             names.append(p.name)
             obj.append(det.object_points)
             img.append(det.image_points)
-        rms, K, d, errors, rej, _keep = calibrate_from_correspondences(names, obj, img, size, what="camera")
+        rms, K, d, errors, rej, _keep = calibrate_from_correspondences(names, obj, img, size, flags=CAMERA_FLAGS,
+                                                                       what="camera")
         rejected.update(rej)
         camera = CameraCalibration(K, d.ravel(), size, rms, errors, rej, str(board.spec))
         say(f"camera: RMS {rms:.3f} px over {len(errors)} poses")

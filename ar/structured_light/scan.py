@@ -202,3 +202,41 @@ def write_ply(path: str | Path, points: np.ndarray, grey: np.ndarray | None = No
         return durable_write(Path(path), header + body)
     except OSError as exc:
         raise CalibrationError(f"cannot write: {exc.strerror or exc}", path) from None
+
+
+def scan_picture(decoded: DecodedPose, scan: Scan, max_height_m: float | None = None, height_px: int = 360) -> np.ndarray:
+    """A BGR picture of a scan: the white capture (decoded pixels tinted by their height
+    where the board was seen, else green), beside the height map seen from above (board
+    frame, x to the right, y down; grey where unknown), coloured blue (table) to yellow
+    (``max_height_m``, default the tallest known cell), with a scale in millimetres."""
+    white = cv2.cvtColor(decoded.white, cv2.COLOR_GRAY2BGR)
+    hm = scan.height_map
+    top = max_height_m or (float(hm.heights[hm.known].max()) if hm is not None and hm.known.any() else 0.05)
+    top = max(top, 1e-3)
+
+    def colour(h: np.ndarray) -> np.ndarray:
+        v = np.clip(h / top, 0, 1)
+        return cv2.applyColorMap((v * 255).astype(np.uint8).reshape(-1, 1), cv2.COLORMAP_VIRIDIS).reshape(-1, 3)
+
+    left = white.copy()
+    px = scan.pixels.astype(np.int64)
+    if scan.heights is not None:
+        left[px[:, 1], px[:, 0]] = (0.4 * left[px[:, 1], px[:, 0]] + 0.6 * colour(scan.heights)).astype(np.uint8)
+    else:
+        left[px[:, 1], px[:, 0], 1] = 255
+    scale = height_px / left.shape[0]
+    left = cv2.resize(left, (int(round(left.shape[1] * scale)), height_px), interpolation=cv2.INTER_AREA)
+    if hm is None:
+        return left
+    right = colour(hm.heights.ravel()).reshape(*hm.shape, 3)
+    right[~hm.known] = 128
+    s = height_px / right.shape[0]
+    right = cv2.resize(right, (max(1, int(round(right.shape[1] * s))), height_px), interpolation=cv2.INTER_NEAREST)
+    bar = np.zeros((height_px, 60, 3), np.uint8)
+    bar[:, :16] = colour(np.linspace(top, 0, height_px)).reshape(height_px, 1, 3)
+    for frac in (0.0, 0.5, 1.0):
+        y = int(np.clip((1 - frac) * (height_px - 1), 10, height_px - 4))
+        cv2.putText(bar, f"{frac * top * 1000:.0f}", (19, y), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1, cv2.LINE_AA)
+    cv2.putText(bar, "mm", (19, height_px // 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1, cv2.LINE_AA)
+    gap = np.full((height_px, 8, 3), 255, np.uint8)
+    return np.hstack([left, gap, right, gap, bar])

@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from ar.boards import Board
+from ar.camera_sources import CameraSource
 from ar.geometry import invert, look_at
 from ar.synthetic import Degradation, SyntheticCamera
 from ar.structured_light.patterns import graycode_sequence
@@ -75,11 +76,18 @@ class GrayCodeScene:
     def __init__(self, camera: SyntheticCamera, boxes: Sequence[Box] = ()):
         self.cam = camera
         self.boxes = tuple(boxes)
+        self._cached: tuple[bytes, dict[str, np.ndarray]] | None = None
 
     def surface(self, T_cam_from_board: np.ndarray) -> dict[str, np.ndarray]:
         """Per supersampled pixel: the board-frame point its ray meets (``x``, ``y``, ``z``),
         whether it meets anything (``valid``), its albedo (H, W, 3) and whether the
-        projector reaches it (``lit``)."""
+        projector reaches it (``lit``). The last pose's surface is kept (read-only)."""
+        key = np.asarray(T_cam_from_board, np.float64).tobytes()
+        if self._cached is None or self._cached[0] != key:
+            self._cached = (key, self._surface(T_cam_from_board))
+        return self._cached[1]
+
+    def _surface(self, T_cam_from_board: np.ndarray) -> dict[str, np.ndarray]:
         T = invert(T_cam_from_board)
         R, o = T[:3, :3].astype(np.float32), T[:3, 3].astype(np.float32)
         rays = self.cam.rays
@@ -122,7 +130,7 @@ class GrayCodeScene:
         deg = degradation or Degradation()
         rng = rng or np.random.default_rng(0)
         surf = self.surface(T_cam_from_board)
-        albedo = surf["albedo"] * deg.exposure
+        albedo = surf["albedo"] * deg.exposure  # a copy: the cached surface stays as it is
         albedo[~surf["valid"]] = 0
         ambient = self.cam.ambient_light(albedo.shape, deg)
         gain = (self.cam.projector_gain * surf["lit"]).astype(np.float32)[..., None]
@@ -177,9 +185,10 @@ def default_scan_box(board: Board) -> Box:
 
 def write_graycode_captures(folder: str | Path, scene: GrayCodeScene, poses: Sequence[np.ndarray],
                             degradation: Degradation | None = None,
-                            progress: Callable[[str], None] | None = None) -> Path:
+                            progress: Callable[[str], None] | None = None, scan_pose: int | None = None) -> Path:
     """Render each pose's Gray-code captures into ``folder/pose_XX/NN.png`` (grey, names
-    sorting in sequence order) and the truth into ``folder/truth.json``; returns ``folder``."""
+    sorting in sequence order) and the truth into ``folder/truth.json`` (``scan_pose``: the
+    index of the pose meant for scanning, recorded there); returns ``folder``."""
     folder = Path(folder)
     cam = scene.cam
     for i, T in enumerate(poses):
@@ -195,6 +204,82 @@ def write_graycode_captures(folder: str | Path, scene: GrayCodeScene, poses: Seq
                            "image_size": list(cam.projector.size)},
              "R": cam.proj_from_cam[:3, :3].tolist(), "T": cam.proj_from_cam[:3, 3].tolist(),
              "board": str(cam.board.spec), "T_cam_from_board": {f"pose_{i:02d}": T.tolist() for i, T in enumerate(poses)},
+             "scan_pose": None if scan_pose is None else f"pose_{scan_pose:02d}",
              "boxes": [{"x0": b.x0, "y0": b.y0, "x1": b.x1, "y1": b.y1, "height": b.height} for b in scene.boxes]}
     (folder / "truth.json").write_text(json.dumps(truth, indent=1))
     return folder
+
+
+class ProjectedSceneSource(CameraSource):
+    """The synthetic rig as a live camera source with a projector window: :meth:`show` is
+    the projector's callback (what it shows from now on), :meth:`read` renders the scene
+    under that light at the current board pose, and :meth:`next_pose` stands for the
+    teacher moving the board (it cycles through ``poses``)."""
+
+    live = True
+
+    def __init__(self, scene: GrayCodeScene, poses: Sequence[np.ndarray], degradation: Degradation | None = None,
+                 seed: int = 0):
+        super().__init__("synthetic rig (projector showing the sequence)")
+        self.scene = scene
+        self.poses = list(poses)
+        self.pose_index = 0
+        self.degradation = degradation
+        self._rng = np.random.default_rng(seed)
+        w, h = scene.cam.projector.size
+        self._shown = np.zeros((h, w), np.uint8)
+        self.shown_count = 0
+
+    def show(self, image: np.ndarray) -> None:
+        """The projector window's callback: show ``image`` (projector resolution, grey or RGB)."""
+        self._shown = np.asarray(image)
+        self.shown_count += 1
+
+    def next_pose(self) -> None:
+        self.pose_index = (self.pose_index + 1) % len(self.poses)
+
+    @property
+    def T_cam_from_board(self) -> np.ndarray:
+        return self.poses[self.pose_index]
+
+    def _grab(self) -> np.ndarray | None:
+        return self.scene.render_sequence(self.T_cam_from_board, [self._shown], self.degradation, self._rng)[0]
+
+
+def scan_view(board: Board, box: Box, proj_from_cam: np.ndarray, distance_m: float = 0.5,
+              tilt_deg: float = 20.0) -> np.ndarray:
+    """``T_cam_from_board`` of a scan: the projector aims between the board's centre and
+    the box's, from ``distance_m``, tilted ``tilt_deg`` toward the board's -y side, so
+    board and box are both lit and seen."""
+    aim = np.array([(board.centre[0] + (box.x0 + box.x1) / 2) / 2, (board.centre[1] + (box.y0 + box.y1) / 2) / 2, 0.0])
+    t = np.radians(tilt_deg)
+    eye = aim + distance_m * np.array([0.0, -np.sin(t), -np.cos(t)])
+    return invert(proj_from_cam) @ look_at(eye, aim, np.array([-1.0, 0.0, 0.0]))
+
+
+def height_map_errors(height_map, boxes: Sequence[Box], inset_m: float = 0.004, clear_m: float = 0.01) -> dict:
+    """A scanned height map against the scene's truth: per box, the known cells of its
+    top (``inset_m`` in from its edges) and their median height (mm) and its error; for
+    the table (known cells ``clear_m`` or more from every box) the median and 95th
+    percentile of ``|height|`` (mm), which is 0 on the true table."""
+    xs, ys = height_map.cell_centres()
+    known = height_map.known
+    out: dict = {"boxes": []}
+    table = known.copy()
+    for b in boxes:
+        top = known & (xs > b.x0 + inset_m) & (xs < b.x1 - inset_m) & (ys > b.y0 + inset_m) & (ys < b.y1 - inset_m)
+        h = height_map.heights[top]
+        median = float(np.median(h)) if h.size else float("nan")
+        out["boxes"].append({"height_mm": b.height * 1000, "top_cells": int(top.sum()), "median_mm": median * 1000,
+                             "error_mm": (median - b.height) * 1000})
+        table &= ~((xs > b.x0 - clear_m) & (xs < b.x1 + clear_m) & (ys > b.y0 - clear_m) & (ys < b.y1 + clear_m))
+    t = np.abs(height_map.heights[table]) * 1000
+    out["table"] = {"cells": int(table.sum()), "abs_median_mm": float(np.median(t)) if t.size else float("nan"),
+                    "abs_p95_mm": float(np.percentile(t, 95)) if t.size else float("nan")}
+    return out
+
+
+def boxes_from_truth(truth: dict) -> list[Box]:
+    """The boxes of a ``truth.json`` written by :func:`write_graycode_captures`."""
+    return [Box(float(b["x0"]), float(b["y0"]), float(b["x1"]), float(b["y1"]), float(b["height"]))
+            for b in truth.get("boxes", [])]
