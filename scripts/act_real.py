@@ -138,7 +138,18 @@ def materialise(rows: list[dict[str, str]], mirror: Path, out: Path, log=print) 
     return done, skipped
 
 
-def write_outputs(done: list[dict], out: Path) -> None:
+def write_outputs(done: list[dict], out: Path, manifest: list[dict[str, str]] | None = None) -> list[dict]:
+    """``labels.csv`` and ``manifest.csv`` in ``out``: the clips written now, and (given
+    the whole ``manifest``) those of its clips an earlier run left in ``out`` (so ``--only``
+    adds to the set instead of replacing it). Returns the rows listed."""
+    if manifest is not None:
+        earlier = {}
+        if (out / "manifest.csv").is_file():
+            with open(out / "manifest.csv", newline="", encoding="utf-8") as f:
+                earlier = {r["clip"]: r for r in csv.DictReader(f)}
+        now = {r["clip"]: r for r in done}
+        done = [now.get(r["clip"]) or earlier[r["clip"]] for r in manifest
+                if r["clip"] in now or (r["clip"] in earlier and (out / f"{r['clip']}.mp4").is_file())]
     with open(out / "labels.csv", "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(["file", "label"])
@@ -149,6 +160,7 @@ def write_outputs(done: list[dict], out: Path) -> None:
         w = csv.DictWriter(f, cols, extrasaction="ignore")
         w.writeheader()
         w.writerows(done)
+    return done
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -164,10 +176,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"act_real: {exc}", file=sys.stderr)
         return 2
     only = {c.strip() for c in a.only.split(",") if c.strip()}
-    if only:
-        rows = [r for r in rows if r["clip"] in only]
-    done, skipped = materialise(rows, a.mirror, a.out)
-    write_outputs(done, a.out)
+    todo = [r for r in rows if r["clip"] in only] if only else rows
+    done, skipped = materialise(todo, a.mirror, a.out)
+    done = write_outputs(done, a.out, rows)
     by = {lab: sum(r["label"] == lab for r in done) for lab in LABELS}
     print(f"{len(done)} clips in {a.out} ({', '.join(f'{k} {v}' for k, v in by.items())})"
           + (f"; skipped {', '.join(skipped)}" if skipped else ""))
