@@ -40,6 +40,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ar.camera_sources import VIDEO_SUFFIXES, VideoFileSource
+from app.paths import REPO_ROOT
 from app.services.act_it_out import ActItOut
 from retrieval.errors import StoryBeamError
 from retrieval.library import ActSearch
@@ -48,7 +49,6 @@ CLASSES = ("walk", "run", "jump", "kick", "dance")
 NONE = "none"
 #: Sources whose change invalidates cached landmarks (the pose estimator and the flow).
 _POSE_SOURCES = ("ar/body", "app/services/act_it_out.py", "ar/camera_sources.py")
-_REPO = Path(__file__).resolve().parents[2]
 
 
 class VideoSetError(StoryBeamError):
@@ -85,10 +85,10 @@ def pose_code_key() -> str:
     """A digest of the pose estimator's and the flow's source files (cache key)."""
     h = hashlib.sha1()
     for rel in _POSE_SOURCES:
-        p = _REPO / rel
+        p = REPO_ROOT / rel
         for f in sorted(p.rglob("*.py")) if p.is_dir() else [p]:
             if f.is_file():
-                h.update(f.relative_to(_REPO).as_posix().encode())
+                h.update(f.relative_to(REPO_ROOT).as_posix().encode())
                 h.update(f.read_bytes())
     return h.hexdigest()[:12]
 
