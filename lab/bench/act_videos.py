@@ -20,7 +20,10 @@ LIBRARY`` does:
    as the query (:meth:`ActSearch.search_take`, what :meth:`ActItOut.results` calls),
    ``--top`` clips: top-1 class and whether the label is among the top-``k`` clips'
    classes; ``search_ms`` per clip after one warm-up search.
-3. **Report.** per-class top-1 and top-k recall, overall and balanced accuracy, the
+3. **Diagnosis** (untimed): per clip what the take shows (:func:`describe_take`: the hips'
+   rise and travel, raised hands, coming nearer, body size) and the rank of the first clip
+   of the right class among the nearest :data:`DIAGNOSTIC_DEPTH`.
+4. **Report.** per-class top-1 and top-k recall, overall and balanced accuracy, the
    confusion matrix (JSON, and a PNG beside the JSON), per-clip body-found rate, and the
    medians of ``pose_ms`` (all frames) and ``search_ms`` (all clips). The process is
    pinned to one core (OpenCV and the BLAS pools to one thread).
@@ -44,9 +47,12 @@ from app.paths import REPO_ROOT
 from app.services.act_it_out import ActItOut
 from retrieval.errors import StoryBeamError
 from retrieval.library import ActSearch
+from retrieval.motion import landmarks_to_positions
 
 CLASSES = ("walk", "run", "jump", "kick", "dance")
 NONE = "none"
+#: How deep the diagnostic search looks for the first clip of the right class.
+DIAGNOSTIC_DEPTH = 20
 #: Sources whose change invalidates cached landmarks (the pose estimator and the flow).
 _POSE_SOURCES = ("ar/body", "app/services/act_it_out.py", "ar/camera_sources.py")
 
@@ -128,6 +134,30 @@ def track_clip(video: Path, cache_dir: Path | None, code_key: str | None = None)
         np.savez_compressed(tmp, **out, meta_json=json.dumps(meta))
         tmp.replace(path)
     return {**out, **meta, "cached": False}
+
+
+def describe_take(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray, fps: float,
+                  image_size: tuple[int, int]) -> dict:
+    """What a take shows, for reading the misses: from the joints the search sees
+    (:func:`retrieval.motion.landmarks_to_positions`, metres, Y up, in leg lengths ``L``)
+    the hips' rise (5th to 95th percentile of their height) and sideways travel, the share
+    of frames with a hand above the head; from the image the change of the trunk's length
+    in pixels from the first to the last half second (> 1: the performer came nearer) and
+    the median body height as a share of the picture's."""
+    pos, jm, leg = landmarks_to_positions(world, image_xy, valid, image_size, fps)
+    root = pos[:, jm["hips"]]
+
+    def spread(x: np.ndarray) -> float:
+        return float((np.percentile(x, 95) - np.percentile(x, 5)) / leg)
+
+    hands = np.maximum(pos[:, jm["left_hand"], 1], pos[:, jm["right_hand"], 1])
+    seen = image_xy[valid]
+    trunk = np.linalg.norm((seen[:, 11] + seen[:, 12]) / 2 - (seen[:, 23] + seen[:, 24]) / 2, axis=1)
+    half = max(1, int(round(fps / 2)))
+    return {"rise_L": spread(root[:, 1]), "travel_L": spread(root[:, 0]),
+            "hands_up": float(np.mean(hands > pos[:, jm["head"], 1])),
+            "nearer": float(np.median(trunk[-half:]) / max(np.median(trunk[:half]), 1e-6)),
+            "body_height": float(np.median(np.ptp(seen[:, :, 1], axis=1)) / image_size[1])}
 
 
 def pin_process_to_one_core() -> int | None:
@@ -217,13 +247,20 @@ def run_act_videos_bench(videos: Path, data: Path, cache_dir: Path | None = Path
             ms = (time.perf_counter() - s0) * 1e3
             search_ms.append(ms)
         answers = [h.label for h in hits]
+        shows, first_right = {}, None
+        if t["valid"].any():  # untimed: what the take shows and how far down the right class comes
+            shows = describe_take(t["world"], t["image_xy"], t["valid"], t["fps"], tuple(t["image_size"]))
+            deep = search.search_take(t["world"], t["image_xy"], t["valid"], t["fps"], tuple(t["image_size"]),
+                                      k=DIAGNOSTIC_DEPTH)
+            first_right = next((i for i, h in enumerate(deep, 1) if h.label == label), None)
         clips.append({"file": video.name, "label": label, "predicted": answers[0] if answers else NONE,
                       "top": [{"trial": h.trial, "label": h.label, "distance": float(h.distance),
                                "start_s": h.start_s, "end_s": h.end_s} for h in hits],
                       f"in_top{top}": label in answers, "detect_rate": float(np.mean(t["valid"])),
                       "frames": int(len(t["valid"])), "fps": t["fps"], "image_size": t["image_size"],
                       "seconds": len(t["valid"]) / t["fps"], "pose_ms_median": _median(t["pose_ms"]),
-                      "search_ms": ms, "verdict": t["verdict"], "cached_landmarks": t["cached"]})
+                      "search_ms": ms, "verdict": t["verdict"], "cached_landmarks": t["cached"],
+                      "shows": shows, f"first_right_in_top{DIAGNOSTIC_DEPTH}": first_right})
         if progress:
             progress(n, len(rows))
     result = summarise(clips, top)
@@ -279,9 +316,13 @@ def format_videos_table(result: dict) -> str:
               f"one core (cpu {result['pinned_cpu']}); library {result['library_clips']} clips"]
     if result.get("confusion_png"):
         lines.append(f"confusion matrix: {result['confusion_png']}")
-    lines += ["", "| clip | label | answer | top | body | frames @ fps | size |", "|---|---|---|---|---|---|---|"]
+    lines += ["", "| clip | label | answer | top | right at | body | rise | hands up | frames @ fps | size |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for c in result["clips"]:
         mark = "" if c["predicted"] == c["label"] else " ✗"
+        shows, rank = c.get("shows") or {}, c.get(f"first_right_in_top{DIAGNOSTIC_DEPTH}")
         lines.append(f"| {c['file']} | {c['label']} | {c['predicted']}{mark} | {','.join(h['label'] for h in c['top'])} | "
-                     f"{c['detect_rate']:.0%} | {c['frames']} @ {c['fps']:.1f} | {c['image_size'][0]}x{c['image_size'][1]} |")
+                     f"{rank or '-'} | {c['detect_rate']:.0%} | {shows.get('rise_L', float('nan')):.2f} L | "
+                     f"{shows.get('hands_up', float('nan')):.0%} | {c['frames']} @ {c['fps']:.1f} | "
+                     f"{c['image_size'][0]}x{c['image_size'][1]} |")
     return "\n".join(lines)

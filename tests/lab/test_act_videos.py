@@ -89,7 +89,7 @@ def test_table_lists_classes_and_marks_misses():
     r.update({"clips": clips, "pose_ms_median": 12.0, "pose_frames": 90, "search_ms_median": 5.0, "pinned_cpu": 0,
               "library_clips": 37})
     text = format_videos_table(r)
-    assert "| jump | 1 | 0.00 | 1.00 | 100% |" in text and "| jump.mp4 | jump | walk ✗ | walk,jump |" in text
+    assert "| jump | 1 | 0.00 | 1.00 | 100% |" in text and "| jump.mp4 | jump | walk ✗ | walk,jump | - | 100% |" in text
 
 
 @pytest.fixture()
@@ -129,3 +129,32 @@ def test_missing_videos_folder_is_a_one_line_error(tmp_path, capsys):
     assert main(["bench", "act-it-out", "--videos", str(tmp_path / "none"), "--data", str(MOTIONS_DIR),
                  "--json", str(tmp_path / "v.json")]) == 1
     assert "no labels.csv" in capsys.readouterr().err
+
+
+def test_describe_take_sees_a_jump_and_a_performer_coming_nearer():
+    from lab.bench.act_videos import describe_take
+    from retrieval.motion import canonical_joint_map, positions
+    from tests.retrieval.test_frontal_landmarks import fake_landmarks
+    from tests.support.synthetic_motion import make_motion, make_skeleton
+
+    sk = make_skeleton()
+    jm = canonical_joint_map(sk)
+    pos = positions(make_motion(sk, frames=60, arm_swing=10.0))
+    pos[..., [0, 2]] -= pos[:, [jm["hips"]]][..., [0, 2]]  # in place
+    ok = np.ones(len(pos), bool)
+
+    def shows(p: np.ndarray) -> dict:
+        world, image = fake_landmarks(p, jm)
+        return describe_take(world, image, ok, 30.0, (640, 480))
+
+    still = shows(pos)
+    jump = pos.copy()
+    jump[20:40, :, 1] += 0.4 * np.sin(np.linspace(0, np.pi, 20))[:, None]  # 0.4 m up and down
+    nearer = pos.copy()
+    nearer[..., 2] += np.linspace(0.0, 1.5, len(pos))[:, None]  # walks 1.5 m towards the camera
+    up = pos.copy()
+    up[:, [jm["left_hand"], jm["right_hand"]], 1] = up[:, [jm["head"]], 1] + 0.2  # hands above the head
+    assert still["rise_L"] < 0.15 and shows(jump)["rise_L"] > still["rise_L"] + 0.3
+    assert 0.95 < still["nearer"] < 1.05 and shows(nearer)["nearer"] > 1.3
+    assert still["hands_up"] == 0.0 and shows(up)["hands_up"] == 1.0
+    assert 0.2 < still["body_height"] < 0.9
