@@ -161,11 +161,12 @@ def describe_take(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray, fp
 
 
 def pin_process_to_one_core() -> int | None:
-    """OpenCV and the BLAS/numba pools to one thread, the process to one CPU; the CPU."""
+    """OpenCV to one thread and the process to one CPU (so every pool shares that CPU);
+    returns the CPU. The thread-count variables of BLAS and numba are read when those
+    start, so a run that wants them at 1 sets them in its environment (the notebook's
+    commands do)."""
     import cv2  # deferred: OpenCV is loaded by the camera source anyway
 
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
     cv2.setNumThreads(1)
     if not hasattr(os, "sched_setaffinity"):
         return None

@@ -94,10 +94,21 @@ def test_table_lists_classes_and_marks_misses():
 
 @pytest.fixture()
 def runtime():
+    """Skips without the pose runtime; gives the test process its CPUs and OpenCV threads
+    back afterwards (the bench pins itself to one core)."""
+    import os
+
+    import cv2
     from ar.body import pose_runtime_available
 
     if not pose_runtime_available():
         pytest.skip("no TFLite interpreter (ai-edge-litert) installed: the bench needs the pose estimator")
+    cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    threads = cv2.getNumThreads()
+    yield
+    cv2.setNumThreads(threads)
+    if cpus is not None:
+        os.sched_setaffinity(0, cpus)
 
 
 @pytest.mark.slow
