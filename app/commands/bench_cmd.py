@@ -404,7 +404,8 @@ def _add_act_it_out(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cache", type=Path, default=Path("out/act_it_out"), help="landmark cache folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--videos", type=Path, default=None,
-                   help="real footage instead: a folder of clips with labels.csv (file,label)")
+                   help="real footage instead: a folder of clips with labels.csv (file,label); "
+                        "the JSON then goes to out/act_it_out_videos.json unless --json names another file")
     p.add_argument("--top", type=_at_least(1), default=3, help="with --videos: top-k accuracy (default 3)")
 
 
