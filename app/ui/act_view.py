@@ -53,7 +53,7 @@ from app.services.act_it_out import (
     pose_runtime_problem,
 )
 from app.ui.art import MOTION_COLOURS
-from app.ui.clip_tiles import ClipTile
+from app.ui.clip_tiles import ClipTile, clip_tile_name
 from app.ui.widgets import IconButton, big_label, filled, tile_grid
 from retrieval.errors import StoryBeamError
 
@@ -484,8 +484,8 @@ class ActItOutView(ModalView):
         self.state = "results"
         self.status.text = self.t("act_found") if hits else self.t("no_clips")
         for h in hits:
-            name = self.t(f"motion_{h.label}") if h.label in MOTION_COLOURS else h.label
-            tile = ClipTile(h.trial, f"{name}  {h.trial}", h.label if h.label in MOTION_COLOURS else "more",
+            name = clip_tile_name(self.t, h.label, h.trial, App.get_running_app().catalog.number_of)
+            tile = ClipTile(h.trial, name, h.label if h.label in MOTION_COLOURS else "more",
                             MOTION_COLOURS.get(h.label, (0.4, 0.4, 0.4)), self.thumbs, lambda h=h: self._pick(h))
             self.tiles.append(tile)
             self.grid.add_widget(tile)

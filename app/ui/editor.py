@@ -18,7 +18,7 @@ from kivy.uix.widget import Widget
 from app.services.act_it_out import act_it_out_allowed
 from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES, find_spins, hop_time
 from app.ui.art import MOTION_COLOURS, draw_background, draw_character_badge
-from app.ui.clip_tiles import ClipTile
+from app.ui.clip_tiles import ClipTile, clip_tile_name
 from app.ui.pose_picker import GroupBrowser, PosePicker
 from app.ui.narration import voice_button
 from app.ui.table_view import TableView, normalise_times
@@ -185,7 +185,9 @@ class EditorScreen(Screen):
         bar.add_widget(IconButton("projector", t("projector"), on_press=lambda: app.go("projector"),
                                   size_hint_x=None, width=dp(100)))
         centre.add_widget(bar)
-        self.table = TableView(scene=scene, selected_id=app.selected_character_id or "")
+        stroke = self.pending_stroke()
+        self.table = TableView(scene=scene, selected_id=app.selected_character_id or "",
+                               pending=[p[:2] for p in stroke] if stroke else [])
         self.table.bind(on_sketch=self.on_sketch)
         centre.add_widget(self.table)
         hint = t("draw_hint") if scene is not None and scene.characters else t("pick_character_hint")
@@ -236,15 +238,15 @@ class EditorScreen(Screen):
             motion_grid.add_widget(b)
         right.add_widget(motion_grid)
         likes = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
-        likes.add_widget(IconButton("more", t("more_like_this"), on_press=self.more_like_this, font_size=dp(14)))
+        likes.add_widget(IconButton("similar", t("more_like_this"), on_press=self.more_like_this, font_size=dp(14)))
         self.act_button = None  # "Act it out" (app.ui.act_view), unless the teacher switched the camera off
         if act_it_out_allowed(app.store):
             self.act_button = IconButton("act", t("act_it_out"), on_press=self.act_it_out, font_size=dp(14))
             likes.add_widget(self.act_button)
         right.add_widget(likes)
         finders = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
-        self.pose_button = IconButton("jump", t("pose_button"), on_press=self.search_by_pose, font_size=dp(14))
-        self.groups_button = IconButton("duplicate", t("groups_button"), on_press=self.browse_groups,
+        self.pose_button = IconButton("pose", t("pose_button"), on_press=self.search_by_pose, font_size=dp(14))
+        self.groups_button = IconButton("groups", t("groups_button"), on_press=self.browse_groups,
                                         font_size=dp(14))
         finders.add_widget(self.pose_button)
         finders.add_widget(self.groups_button)
@@ -254,6 +256,13 @@ class EditorScreen(Screen):
         self.add_widget(root)
 
     # -- helpers ----------------------------------------------------------------------
+    def pending_stroke(self) -> list | None:
+        """The stroke drawn in this scene before it had a character, if any."""
+        pending = getattr(App.get_running_app(), "pending_stroke", None)
+        if pending is None or self.scene is None or pending[0] != self.scene.id:
+            return None
+        return pending[1]
+
     def selected_character(self):
         app = App.get_running_app()
         scene = self.scene
@@ -267,7 +276,7 @@ class EditorScreen(Screen):
         try:
             action(app.editor)
         except StoryBeamError as exc:
-            app.show_message(app.t("error", why=str(exc)))
+            app.show_error(exc)
             return
         self.refresh()
 
@@ -312,9 +321,17 @@ class EditorScreen(Screen):
         if self.scene is None:
             return
 
+        scene_id, stroke = self.scene.id, self.pending_stroke()
+
         def action(ed):
-            app.selected_character_id = ed.add_character(self.scene.id, kind).id
+            character = ed.add_character(scene_id, kind)
+            app.selected_character_id = character.id
+            if stroke:  # the line drawn before anyone was there: the new character's path
+                cleaned, spins = find_spins(normalise_times(stroke))
+                ed.set_path(scene_id, character.id, cleaned, spins)
         self._edit(action)
+        app.pending_stroke = None
+        self.table.pending = []
 
     def remove_character(self) -> None:
         character = self.selected_character()
@@ -328,7 +345,7 @@ class EditorScreen(Screen):
     def choose_motion(self, name: str, clip_id: str | None = None) -> None:
         character = self.selected_character()
         if character is None:
-            App.get_running_app().show_message(App.get_running_app().t("pick_character_hint"))
+            App.get_running_app().show_notice("add_someone")
             return
         if name == "more":
             self.more_like_this(show_all=True)
@@ -342,7 +359,7 @@ class EditorScreen(Screen):
         character = self.selected_character()
         catalog = app.catalog
         if character is None:
-            app.show_message(t("pick_character_hint"))
+            app.show_notice("add_someone")
             return
         catalog.start_index()
         if show_all:
@@ -363,8 +380,7 @@ class EditorScreen(Screen):
             def pick(clip=clip):
                 view.dismiss()
                 self._edit(lambda ed: ed.set_motion(self.scene.id, character.id, clip.label, clip.trial))
-            name = t(f"motion_{clip.label}") if clip.label in MOTION_COLOURS else clip.label
-            tile = ClipTile(clip.trial, f"{name}  {clip.trial}", icon,
+            tile = ClipTile(clip.trial, clip_tile_name(t, clip.label, clip.trial, catalog.number_of), icon,
                             MOTION_COLOURS.get(clip.label, (0.4, 0.4, 0.4)), thumbs, pick,
                             selected=clip.trial == character.motion.clip_id)
             self.clip_tiles.append(tile)
@@ -389,7 +405,7 @@ class EditorScreen(Screen):
         """Open the posable figure (:class:`app.ui.pose_picker.PosePicker`)."""
         app = App.get_running_app()
         if self.selected_character() is None:
-            app.show_message(app.t("pick_character_hint"))
+            app.show_notice("add_someone")
             return
         self.pose_view = PosePicker(on_pick=self._pick_clip)
         self.pose_view.open()
@@ -399,7 +415,7 @@ class EditorScreen(Screen):
         movement; the motion picked from the nearest ones goes to the selected character."""
         app = App.get_running_app()
         if self.selected_character() is None:
-            app.show_message(app.t("pick_character_hint"))
+            app.show_notice("add_someone")
             return
         if not act_it_out_allowed(app.store):  # switched off since the screen was drawn
             self.refresh()
@@ -413,7 +429,7 @@ class EditorScreen(Screen):
         """Open the library's own groups (:class:`app.ui.pose_picker.GroupBrowser`)."""
         app = App.get_running_app()
         if self.selected_character() is None:
-            app.show_message(app.t("pick_character_hint"))
+            app.show_notice("add_someone")
             return
         self.group_view = GroupBrowser(on_pick=self._pick_clip)
         self.group_view.open()
@@ -432,8 +448,12 @@ class EditorScreen(Screen):
         app = App.get_running_app()
         scene = self.scene
         character = self.selected_character()
-        if scene is None or character is None:
-            app.show_message(app.t("pick_character_hint"))
+        if scene is None:
+            return
+        if character is None:  # kept: the next character added walks it (drawn dashed till then)
+            app.pending_stroke = (scene.id, list(points))
+            self.table.pending = [p[:2] for p in points]
+            app.show_notice("add_someone")
             return
         if character.path:
             at = hop_time(points, character.path)
