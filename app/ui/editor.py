@@ -22,7 +22,7 @@ from app.ui.clip_tiles import ClipTile, clip_tile_name
 from app.ui.pose_picker import GroupBrowser, PosePicker
 from app.ui.narration import voice_button
 from app.ui.table_view import TableView, normalise_times
-from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
+from app.ui.widgets import BUTTON_DP, MIN_TOUCH_DP, IconButton, big_label, compact_screen, filled, window_dp
 from retrieval.errors import StoryBeamError
 
 THUMB_DP = 96
@@ -148,9 +148,20 @@ class EditorScreen(Screen):
         if scene is not None and scene.characters and app.selected_character_id not in [c.id for c in scene.characters]:
             app.selected_character_id = scene.characters[0].id
         root = filled(BoxLayout(spacing=dp(8), padding=dp(8)), (0.96, 0.93, 0.85, 1))
+        # Sizes for this screen (dp): narrower columns and shorter rows on a small tablet; the
+        # right column's rows share its height (never under the 48 dp touch minimum).
+        win_w, win_h = window_dp()
+        compact = compact_screen()
+        left_w, right_w, label_size = (140, 280, 13) if compact else (170, 300, 16)
+        label_h = label_size * 1.9
+        fixed = 3 * label_h + 52 + 7 * 4 + 16
+        unit = max(MIN_TOUCH_DP, min(BUTTON_DP, (win_h - fixed) / 6.9))
+        centre_w = win_w - left_w - right_w - 32
+        bar_w = max(MIN_TOUCH_DP, min(90, (centre_w - 6 * 6 - 2) / 6))  # six buttons, a spacer: six gaps
+        bar_font = dp(15) if bar_w >= 86 else dp(12)
 
         # -- left: scene strip -------------------------------------------------------
-        left = BoxLayout(orientation="vertical", size_hint_x=None, width=dp(170), spacing=dp(6))
+        left = BoxLayout(orientation="vertical", size_hint_x=None, width=dp(left_w), spacing=dp(6))
         self.strip = SceneStrip(on_select=self.select_scene, on_move=self.move_scene)
         story = app.editor.story
         for i, s in enumerate(story.scenes):
@@ -168,22 +179,24 @@ class EditorScreen(Screen):
 
         # -- centre: top bar + table -------------------------------------------------
         centre = BoxLayout(orientation="vertical", spacing=dp(6))
-        bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(6))
-        bar.add_widget(IconButton("home", t("home"), on_press=app.go_home, size_hint_x=None, width=dp(90)))
-        self.undo_button = IconButton("undo", t("undo"), on_press=self.undo, size_hint_x=None, width=dp(90))
-        self.redo_button = IconButton("redo", t("redo"), on_press=self.redo, size_hint_x=None, width=dp(90))
+        bar = BoxLayout(size_hint_y=None, height=dp(unit if compact else BUTTON_DP), spacing=dp(6))
+        small = {"size_hint_x": None, "width": dp(bar_w), "font_size": bar_font}
+        bar.add_widget(IconButton("home", t("home"), on_press=app.go_home, **small))
+        self.undo_button = IconButton("undo", t("undo"), on_press=self.undo, **small)
+        self.redo_button = IconButton("redo", t("redo"), on_press=self.redo, **small)
         self.undo_button.opacity = 1.0 if app.editor.can_undo else 0.45
         self.redo_button.opacity = 1.0 if app.editor.can_redo else 0.45
         bar.add_widget(self.undo_button)
         bar.add_widget(self.redo_button)
         bar.add_widget(Widget())
-        self.voice_button = voice_button(self)  # the scene's narration (app.ui.narration)
+        self.voice_button = voice_button(self, **small)  # the scene's narration (app.ui.narration)
         bar.add_widget(self.voice_button)
-        self.play_button = IconButton("play", t("play"), on_press=lambda: app.go("play"), size_hint_x=None,
-                                      width=dp(90), background=[0.75, 0.95, 0.75, 1])
+        self.play_button = IconButton("play", t("play"), on_press=lambda: app.go("play"),
+                                      background=[0.75, 0.95, 0.75, 1], **small)
         bar.add_widget(self.play_button)
-        bar.add_widget(IconButton("projector", t("projector"), on_press=lambda: app.go("projector"),
-                                  size_hint_x=None, width=dp(100)))
+        self.projector_button = IconButton("projector", t("projector"), on_press=lambda: app.go("projector"),
+                                           **small)
+        bar.add_widget(self.projector_button)
         centre.add_widget(bar)
         stroke = self.pending_stroke()
         self.table = TableView(scene=scene, selected_id=app.selected_character_id or "",
@@ -196,9 +209,9 @@ class EditorScreen(Screen):
         root.add_widget(centre)
 
         # -- right: choices ------------------------------------------------------------
-        right = BoxLayout(orientation="vertical", size_hint_x=None, width=dp(300), spacing=dp(4))
-        right.add_widget(big_label(t("background"), 16))
-        bg_grid = GridLayout(cols=4, spacing=dp(4), size_hint_y=None, height=dp(2 * 70 + 4))
+        right = BoxLayout(orientation="vertical", size_hint_x=None, width=dp(right_w), spacing=dp(4))
+        right.add_widget(big_label(t("background"), label_size))
+        bg_grid = GridLayout(cols=4, spacing=dp(4), size_hint_y=None, height=dp(2 * 0.92 * unit + 4))
         self.background_buttons = {}
         for name in BACKGROUNDS:
             b = IconButton(name, t(f"bg_{name}"), on_press=lambda n=name: self.set_background(n),
@@ -206,8 +219,8 @@ class EditorScreen(Screen):
             self.background_buttons[name] = b
             bg_grid.add_widget(b)
         right.add_widget(bg_grid)
-        right.add_widget(big_label(t("characters"), 16))
-        add_row = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(BUTTON_DP))
+        right.add_widget(big_label(t("characters"), label_size))
+        add_row = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(unit))
         self.character_buttons = {}
         for kind in CHARACTER_KINDS:
             b = IconButton(kind, "+ " + t(f"char_{kind}"), on_press=lambda k=kind: self.add_character(k),
@@ -226,8 +239,8 @@ class EditorScreen(Screen):
         self.remove_button.disabled = self.selected_character() is None
         cast_line.add_widget(self.remove_button)
         right.add_widget(cast_line)
-        right.add_widget(big_label(t("motion"), 16))
-        motion_grid = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(2 * BUTTON_DP + 4))
+        right.add_widget(big_label(t("motion"), label_size))
+        motion_grid = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(2 * unit + 4))
         selected = self.selected_character()
         self.motion_buttons = {}
         for name in (*MOTION_CLASSES, "more"):
@@ -237,14 +250,14 @@ class EditorScreen(Screen):
             self.motion_buttons[name] = b
             motion_grid.add_widget(b)
         right.add_widget(motion_grid)
-        likes = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
+        likes = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(0.84 * unit))
         likes.add_widget(IconButton("similar", t("more_like_this"), on_press=self.more_like_this, font_size=dp(14)))
         self.act_button = None  # "Act it out" (app.ui.act_view), unless the teacher switched the camera off
         if act_it_out_allowed(app.store):
             self.act_button = IconButton("act", t("act_it_out"), on_press=self.act_it_out, font_size=dp(14))
             likes.add_widget(self.act_button)
         right.add_widget(likes)
-        finders = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
+        finders = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(0.84 * unit))
         self.pose_button = IconButton("pose", t("pose_button"), on_press=self.search_by_pose, font_size=dp(14))
         self.groups_button = IconButton("groups", t("groups_button"), on_press=self.browse_groups,
                                         font_size=dp(14))

@@ -438,7 +438,7 @@ class NarrationPanel(ModalView):
         self._stop_listening()
 
 
-def voice_button(screen) -> IconButton:
+def voice_button(screen, **kwargs) -> IconButton:
     """The editor's *Voice* button: opens the :class:`NarrationPanel` of its scene."""
     app = App.get_running_app()
     scene = screen.scene
@@ -449,8 +449,10 @@ def voice_button(screen) -> IconButton:
             return
         screen.narration_panel = NarrationPanel(screen.scene.id, on_done=screen.refresh)
         screen.narration_panel.open()
-    return IconButton("voice", app.t("narration"), on_press=open_panel, size_hint_x=None, width=dp(90),
-                      background=[1, 0.85, 0.75, 1], selected=has_voice)
+    kwargs.setdefault("size_hint_x", None)
+    kwargs.setdefault("width", dp(90))
+    return IconButton("voice", app.t("narration"), on_press=open_panel, background=[1, 0.85, 0.75, 1],
+                      selected=has_voice, **kwargs)
 
 
 __all__ = ["RECORDING_SETTING", "NarrationPanel", "NarrationPlayback", "voice_button", "recording_allowed",

@@ -18,6 +18,7 @@ from app.services import ActItOutError, RecordingError
 from app.story import NarrationError, StorageError, StoryError
 from app.ui.notice_art import PICTURES, draw_notice
 from app.ui.widgets import big_label
+from ar.camera_sources import CameraSourceError
 from ar.errors import RigError
 from retrieval.errors import StoryBeamError
 
@@ -37,7 +38,7 @@ def notice_for(exc: BaseException) -> str:
         return "no_microphone"
     if isinstance(exc, StorageError):
         return "storage"
-    if isinstance(exc, (RigError, ActItOutError)):
+    if isinstance(exc, (RigError, ActItOutError, CameraSourceError)):
         return "no_camera"
     if isinstance(exc, StoryError):
         return "file_broken"

@@ -9,6 +9,7 @@ import pytest
 from app.services.speech import EspeakSpeaker, SilentSpeaker, find_speaker
 from app.story import NarrationError, StorageError, StoryError
 from app.services import ActItOutError, RecordingError
+from ar.camera_sources import CameraSourceError
 from app.ui.clip_tiles import clip_tile_name, numbered_names
 from app.ui.strings import LANGUAGES, STRINGS, device_language, tr
 
@@ -54,6 +55,7 @@ def test_errors_become_notices_never_their_text():
         ImportError("No module named 'sounddevice'"): "no_microphone",
         StorageError("/data/profile.db: disk I/O error"): "storage",
         ActItOutError("camera 1 cannot be opened"): "no_camera",
+        CameraSourceError("kivy:1", "Kivy cannot open this camera"): "no_camera",
         StoryError("story.json, scene 2: bad path"): "file_broken",
         ValueError("anything else"): "oops",
     }

@@ -37,4 +37,11 @@ def stroke_first_steps(app):
     yield drv.finish
 
 
-SCENARIOS = {"stroke_first": stroke_first_steps}
+def first_launch_steps(app):
+    """Nothing touched: which language the app opened in, and what it saved."""
+    yield lambda: drv.result.update(lang=app.lang, title=app.sm.get_screen("home").title_label.text,
+                                    saved=app.store.get_setting("language"))
+    yield drv.finish
+
+
+SCENARIOS = {"stroke_first": stroke_first_steps, "first_launch": first_launch_steps}

@@ -218,6 +218,7 @@ class DriverApp(StoryBeamApp):
 
 if __name__ == "__main__":
     lang = os.environ.get("STORYBEAM_TEST_LANG", "en")
+    lang = None if lang == "device" else lang  # "device": no language asked for, as on a first launch
     demo = SCENARIO in ("editor", "language", "play3d", "projector3d", "thumbs")
     if SCENARIO == "teacher":  # one saved story for the exports (made outside the UI)
         from app.story.demo_story import demo_story
