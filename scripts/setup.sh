@@ -7,7 +7,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES="libegl1 libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri libopengl0 libosmesa6 libgles2 xvfb xauth libmtdev1 strace glslang-tools"  # glslang-tools: checks the Kivy GL shaders are GLSL ES 1.00
+APT_PACKAGES="libegl1 libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri libopengl0 libosmesa6 libgles2 xvfb xauth libmtdev1 strace glslang-tools libportaudio2"  # glslang-tools: checks the Kivy GL shaders are GLSL ES 1.00; libportaudio2: sounddevice (desktop recording)
 
 missing=""
 for p in $APT_PACKAGES; do

@@ -5,8 +5,10 @@
                   [--preview auto|3d|2d] [--renderer kivy-gl|pyrender] [--camera SOURCE] [--act-camera SOURCE]
 
 A screenshot also writes ``PATH.json``: ``{"renderer": "kivy-gl" | "pyrender" | "2d",
-"screen": ...}`` -- which renderer drew the frame (play and projector wait, up to
-``SCREENSHOT_WAIT_S``, for their first 3-D frame).
+"screen": ..., "clipped_widgets": [...]}`` -- which renderer drew the frame (play and
+projector wait, up to ``SCREENSHOT_WAIT_S``, for their first 3-D frame) and the widgets
+the window cuts off or another widget covers (:mod:`app.ui.layout_check`; empty when the
+layout holds at this ``--size`` and ``--density``).
 
 Cold start (process start to the first frame on screen) is measured and printed on every
 launch, because it is what a teacher waits for in front of a class.
@@ -24,7 +26,7 @@ from pathlib import Path
 
 from retrieval.errors import StoryBeamError
 
-SCREENS = ("editor", "home", "play", "projector", "pin")
+SCREENS = ("editor", "home", "play", "projector", "pin", "teacher")
 #: the longest a --screenshot of play / projector waits for its first 3-D frame
 SCREENSHOT_WAIT_S = 90.0
 
@@ -59,6 +61,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                         "(opens the demo story unless --story is given)")
     p.add_argument("--screen", choices=SCREENS, default=None, help="with --screenshot: which screen (default editor)")
     p.add_argument("--size", default="1280x800", help="window size WxH (default 1280x800)")
+    p.add_argument("--density", type=_density, default=None,
+                   help="screen density (Kivy's dp scale: 1, 1.33, 2, 3; default: the device's), to see "
+                        "a tablet's layout on a desktop")
     p.add_argument("--camera", metavar="SOURCE",
                    help="the rig's camera: a device number (0), the Kivy camera (kivy, kivy:1: Android's "
                         "camera), a video file (session.mp4) or a folder of "
@@ -77,6 +82,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="who draws the 3-D frames: Kivy's OpenGL ES 2 on the UI thread (default, every "
                         "device) or pyrender on the render thread (desktop, the reference renderer)")
     p.set_defaults(func=run)
+
+
+def _density(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number such as 1, 1.33 or 2, got {text!r}") from None
+    if not 0.5 <= value <= 4.0:
+        raise argparse.ArgumentTypeError(f"{value} out of range (0.5 to 4)")
+    return value
 
 
 def _parse_size(text: str) -> tuple[int, int]:
@@ -119,6 +134,10 @@ def run(args: argparse.Namespace) -> int:
     screen = args.screen or ("editor" if (args.story or demo) else None)
 
     from app.ui.env import prepare_kivy_env  # deferred: the UI layer loads only when the app launches
+    if args.density is not None:  # read by kivy.metrics when Kivy is first imported
+        os.environ["KIVY_METRICS_DENSITY"] = str(args.density)
+    if screen == "teacher" and screenshot is None:
+        raise StoryBeamError("--screen teacher goes with --screenshot (the app itself asks for the PIN)")
     prepare_kivy_env(headless=screenshot is not None, width=width, height=height)
     # deferred: Kivy reads its environment at import, so it comes after prepare_kivy_env()
     from kivy.clock import Clock
@@ -129,6 +148,11 @@ def run(args: argparse.Namespace) -> int:
     result = {"first_frame_s": None, "error": None}
 
     class _LaunchedApp(StoryBeamApp):
+        def build(self):
+            # a screenshot of the teacher's screen (--screenshot only, checked above): no PIN pad
+            self.teacher_unlocked = screen == "teacher"
+            return super().build()
+
         def on_start(self):
             Window.bind(on_flip=self._first_flip)
 
@@ -172,7 +196,12 @@ def run(args: argparse.Namespace) -> int:
             drawn = getattr(shown, "drawn_by", None) or getattr(getattr(shown, "player", None), "drawn_by", None)
             if shown.name not in ("play", "projector") or (shown.name == "projector" and not shown.use_stage):
                 drawn = None
-            info = {"renderer": drawn or "2d", "screen": shown.name,
+            from kivy.metrics import Metrics  # deferred: Kivy, after the window
+
+            from app.ui.layout_check import clipped_widgets  # deferred: Kivy, after the window
+            info = {"renderer": drawn or "2d", "screen": shown.name, "size": list(Window.size),
+                    "density": Metrics.density,
+                    "clipped_widgets": clipped_widgets(list(reversed(Window.children)), Window.size),
                     "renderer_requested": args.renderer if use_3d else "2d",
                     "render_error": self.renderer.error if self.renderer is not None else None}
             frame = getattr(shown, "last_stage_frame", None)

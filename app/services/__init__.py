@@ -14,7 +14,9 @@
 * :mod:`app.services.background` -- ``BackgroundLoad``: work done once on a background
   thread (the search indexes), with callbacks when it has ended;
 * :mod:`app.services.recording` -- recording a scene's narration (Android AudioRecord
-  through pyjnius, sounddevice on a desktop) into a crash-safe ``.part`` file.
+  through pyjnius, sounddevice on a desktop) into a crash-safe ``.part`` file;
+* :mod:`app.services.speech` -- spoken prompts (Android TextToSpeech, espeak-ng on a
+  desktop, silence where neither exists).
 
 The UI must start fast and keep working where a part is missing (no numba on Android, no
 pyrender, no bundled clips): each service answers from cheap data at once and loads the
@@ -48,6 +50,7 @@ from app.services.recording import (
     find_recorder,
 )
 from app.services.background import BackgroundLoad
+from app.services.speech import EspeakSpeaker, SilentSpeaker, Speaker, find_speaker
 from app.services.thumbnails import (
     BONES,
     HEAD,
@@ -67,4 +70,5 @@ __all__ = [
     "ActItOut", "ActItOutError", "ActLibrary", "TakeVerdict", "judge_poses", "act_it_out_allowed",
     "set_act_it_out_allowed", "ACT_SETTING", "STEP_BACK", "LIFT_HEAD", "NO_BODY", "SKELETON_BONES",
     "ChunkRecorder", "ChunkSource", "ArraySource", "RecordingError", "RECORD_RATE", "find_recorder", "discard_stale",
+    "Speaker", "SilentSpeaker", "EspeakSpeaker", "find_speaker",
 ]

@@ -66,6 +66,16 @@ class MotionCatalog:
     def label_of(self, trial: str) -> str | None:
         return next((c.label for c in self.clips if c.trial == trial), None)
 
+    def number_of(self, trial: str) -> int | None:
+        """The clip's place among the clips of its class, from 1 (the library's order, so
+        it never changes while the library does not), or None for a clip not in it. A
+        window of a clip (``02_03@52``, an *Act it out* answer) is numbered as its clip."""
+        base = trial.split("@", 1)[0]
+        label = self.label_of(base)
+        if label is None:
+            return None
+        return 1 + [c.trial for c in self.clips_of(label)].index(base)
+
     @property
     def index_ready(self) -> bool:
         return self._index is not None

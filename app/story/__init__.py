@@ -44,6 +44,8 @@ from app.story.model import (
 )
 from app.story.narration import (
     ACCEPTED_RATES,
+    MAX_IMPORT_FILE_BYTES,
+    MAX_IMPORT_SECONDS,
     MAX_NARRATION_FILE_BYTES,
     MAX_STORY_NARRATION_SECONDS,
     MIN_NARRATION_SECONDS,
@@ -82,7 +84,7 @@ __all__ = [
     "Story", "Narration", "MAX_NARRATION_SECONDS",
     # narration
     "NarrationError", "Audio", "ACCEPTED_RATES", "MIN_NARRATION_SECONDS", "MAX_NARRATION_FILE_BYTES",
-    "MAX_STORY_NARRATION_SECONDS", "decode_audio", "read_audio", "trim", "encode_wav", "store_narration",
+    "MAX_IMPORT_FILE_BYTES", "MAX_IMPORT_SECONDS", "MAX_STORY_NARRATION_SECONDS", "decode_audio", "read_audio", "trim", "encode_wav", "store_narration",
     "import_narration", "load_narration", "prune_narrations",
     # editing
     "StoryEditor", "MAX_UNDO",

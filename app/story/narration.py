@@ -6,14 +6,16 @@ package's asset) is decoded to 16-bit mono PCM and checked *before* anything is 
 1. **Size first.** A file larger than :data:`MAX_NARRATION_FILE_BYTES` is refused from its
    ``stat`` alone, so an enormous file is never read into memory.
 2. **Format by content, not by name.** ``RIFF....WAVE`` is read with the standard
-   library's :mod:`wave` (integer PCM, 8/16/24/32 bit, mono or stereo); ``OggS`` with
+   library's :mod:`wave` (integer PCM, 8/16/24/32 bit, mono or stereo) -- IEEE float
+   (32/64 bit, Audacity's default), which :mod:`wave` refuses, from its chunks; ``OggS`` with
    `soundfile <https://python-soundfile.readthedocs.io>`_ (libsndfile: Vorbis, Opus,
    FLAC-in-Ogg), an optional dependency -- without it an OGG file is refused with a
    message saying so. Anything else is "not a WAV or OGG file".
 3. **Header limits before decoding.** The declared rate must be one of
    :data:`ACCEPTED_RATES` (telephone 8 kHz to studio 48 kHz: anything else is a wrong or
-   damaged header), and the declared length at most :data:`MAX_NARRATION_SECONDS`, so a
-   header announcing hours of audio is refused before its samples are read.
+   damaged header), and the declared length at most :data:`MAX_NARRATION_SECONDS` (an
+   import: :data:`MAX_IMPORT_SECONDS`, trimmed before it is kept), so a header announcing
+   hours of audio is refused before its samples are read.
 4. **Decoded checks.** The frames actually read must match the header (a truncated file
    is corrupt), be at least :data:`MIN_NARRATION_SECONDS` long and not all zero (an
    empty recording -- a muted or missing microphone).
@@ -74,8 +76,16 @@ class NarrationEditor(Protocol):
 #: Sample rates a narration may have (Hz); anything else is refused as a wrong rate.
 ACCEPTED_RATES = (8000, 11025, 16000, 22050, 24000, 32000, 44100, 48000)
 MIN_NARRATION_SECONDS = 0.1
-#: Largest file accepted for import (bytes), checked before reading.
+#: Largest audio file decoded (bytes), checked before reading: stored narrations and a
+#: package's are far smaller (16-bit mono, at most 11.5 MB).
 MAX_NARRATION_FILE_BYTES = 16 * 1024 * 1024
+#: Largest file accepted for *import* (bytes): a long or float WAV (Audacity's default,
+#: 32-bit float stereo at 44.1 kHz: 353 kB/s) is imported whole and trimmed before it is
+#: kept, so the limit covers about 3 minutes of that format.
+MAX_IMPORT_FILE_BYTES = 64 * 1024 * 1024
+#: Longest audio accepted for import (seconds): the child trims it to at most
+#: :data:`MAX_NARRATION_SECONDS` before it is kept.
+MAX_IMPORT_SECONDS = 600.0
 #: All narrations of one story together (seconds): keeps every narrated story packable.
 MAX_STORY_NARRATION_SECONDS = 600.0
 MAX_CHANNELS = 2
@@ -83,7 +93,17 @@ ASSET_PREFIX = "narration-"
 
 
 class NarrationError(StoryBeamError):
-    """Audio that cannot be a scene's narration; the message names the file and why."""
+    """Audio that cannot be a scene's narration; the message names the file and why.
+
+    ``kind`` says what went wrong in one word, for the picture a child is shown instead of
+    the message (:mod:`app.ui.notices`): ``unreadable`` (not audio we can decode, damaged),
+    ``too_long`` (longer than a scene's narration may be: trim it), ``too_big`` (the file
+    itself), ``silent`` (nothing recorded), ``too_short``, ``story_full`` (the story's
+    narrations together), ``missing`` (a stored voice that is gone)."""
+
+    def __init__(self, message: str, kind: str = "unreadable"):
+        super().__init__(message)
+        self.kind = kind
 
 
 @dataclass(frozen=True)
@@ -102,17 +122,19 @@ def _seconds_text(seconds: float) -> str:
     return f"{seconds:.1f} s"
 
 
-def _check_header(where: str, rate: int, channels: int, frames: int) -> None:
+def _check_header(where: str, rate: int, channels: int, frames: int,
+                  max_seconds: float = MAX_NARRATION_SECONDS) -> None:
     if rate not in ACCEPTED_RATES:
         raise NarrationError(f"{where}: sample rate {rate} Hz is not supported "
                              f"(use one of {', '.join(str(r) for r in ACCEPTED_RATES)} Hz)")
     if not 1 <= channels <= MAX_CHANNELS:
         raise NarrationError(f"{where}: {channels} channels; narration must be mono or stereo")
     if frames <= 0:
-        raise NarrationError(f"{where}: the audio is empty (no samples)")
-    if frames / rate > MAX_NARRATION_SECONDS:
-        raise NarrationError(f"{where}: {_seconds_text(frames / rate)} long; a scene's narration may be at most "
-                             f"{MAX_NARRATION_SECONDS:.0f} s (trim it first)")
+        raise NarrationError(f"{where}: the audio is empty (no samples)", "silent")
+    if frames / rate > max_seconds:
+        raise NarrationError(f"{where}: {_seconds_text(frames / rate)} long; at most {max_seconds:.0f} s "
+                             f"can be {'imported' if max_seconds > MAX_NARRATION_SECONDS else 'a narration'}",
+                             "too_long")
 
 
 def _finish(where: str, mono: np.ndarray, rate: int) -> Audio:
@@ -120,17 +142,75 @@ def _finish(where: str, mono: np.ndarray, rate: int) -> Audio:
     samples = np.ascontiguousarray(mono, dtype=np.int16)
     if len(samples) / rate < MIN_NARRATION_SECONDS:
         raise NarrationError(f"{where}: only {len(samples) / rate * 1000:.0f} ms of audio; "
-                             f"a narration needs at least {MIN_NARRATION_SECONDS * 1000:.0f} ms")
+                             f"a narration needs at least {MIN_NARRATION_SECONDS * 1000:.0f} ms", "too_short")
     if not np.any(samples):
-        raise NarrationError(f"{where}: the audio is empty (silence only; is the microphone on?)")
+        raise NarrationError(f"{where}: the audio is empty (silence only; is the microphone on?)", "silent")
     return Audio(samples, rate)
 
 
-def _decode_wav(data: bytes, where: str) -> Audio:
+#: WAVE format tags (the ``fmt `` chunk's first field): integer PCM, IEEE float, and
+#: WAVE_FORMAT_EXTENSIBLE, whose sub-format GUID starts with one of the other two.
+_WAVE_PCM, _WAVE_FLOAT, _WAVE_EXTENSIBLE = 1, 3, 0xFFFE
+
+
+def _wav_chunks(data: bytes) -> dict[bytes, tuple[int, int]]:
+    """The RIFF/WAVE chunks of ``data``: id -> (offset of its body, declared size); the
+    first of each id. Stops at a chunk that runs past the end (kept: a cut data chunk)."""
+    chunks: dict[bytes, tuple[int, int]] = {}
+    pos = 12
+    while pos + 8 <= len(data):
+        cid, size = data[pos:pos + 4], int.from_bytes(data[pos + 4:pos + 8], "little")
+        chunks.setdefault(cid, (pos + 8, size))
+        pos += 8 + size + (size & 1)
+    return chunks
+
+
+def _wav_format_tag(data: bytes) -> int | None:
+    """The format tag of a RIFF/WAVE byte string (the extensible tag resolved to its
+    sub-format), or None when no complete ``fmt `` chunk is found. Read here because
+    :mod:`wave` (Python 3.11) rejects IEEE float outright ("unknown format: 3")."""
+    body, size = _wav_chunks(data).get(b"fmt ", (0, 0))
+    if size < 16 or body + size > len(data):
+        return None
+    tag = int.from_bytes(data[body:body + 2], "little")
+    if tag == _WAVE_EXTENSIBLE and size >= 26:
+        tag = int.from_bytes(data[body + 24:body + 26], "little")  # the sub-format GUID's first two bytes
+    return tag
+
+
+def _decode_float_wav(data: bytes, where: str, max_seconds: float) -> Audio:
+    """An IEEE-float WAV (32 or 64 bit; plain or extensible header -- Audacity's default
+    export): the ``fmt `` and ``data`` chunks read directly, samples in [-1, 1] scaled to
+    16 bit (NaN as silence, out-of-range values clipped), channels averaged."""
+    chunks = _wav_chunks(data)
+    body, _ = chunks[b"fmt "]
+    channels = int.from_bytes(data[body + 2:body + 4], "little")
+    rate = int.from_bytes(data[body + 4:body + 8], "little")
+    bits = int.from_bytes(data[body + 14:body + 16], "little")
+    if bits not in (32, 64):
+        raise NarrationError(f"{where}: {bits}-bit float samples are not supported")
+    if b"data" not in chunks:
+        raise NarrationError(f"{where}: not a readable WAV file (no data chunk)")
+    start, size = chunks[b"data"]
+    width = bits // 8
+    frames = size // (width * max(channels, 1))
+    _check_header(where, rate, channels, frames, max_seconds)
+    raw = data[start:start + frames * channels * width]
+    if len(raw) != frames * channels * width:
+        raise NarrationError(f"{where}: the WAV file is damaged or cut short "
+                             f"({len(raw) // (channels * width)} of {frames} frames present)")
+    block = np.frombuffer(raw, "<f4" if bits == 32 else "<f8").reshape(frames, channels)
+    mono = np.nan_to_num(block.astype(np.float64).mean(axis=1), nan=0.0, posinf=1.0, neginf=-1.0)
+    return _finish(where, np.clip(np.round(mono * 32767.0), -32768, 32767), rate)
+
+
+def _decode_wav(data: bytes, where: str, max_seconds: float = MAX_NARRATION_SECONDS) -> Audio:
+    if _wav_format_tag(data) == _WAVE_FLOAT:
+        return _decode_float_wav(data, where, max_seconds)
     try:
         with wave.open(io.BytesIO(data), "rb") as wf:
             rate, channels, width, frames = wf.getframerate(), wf.getnchannels(), wf.getsampwidth(), wf.getnframes()
-            _check_header(where, rate, channels, frames)
+            _check_header(where, rate, channels, frames, max_seconds)
             if width not in (1, 2, 3, 4):
                 raise NarrationError(f"{where}: {8 * width}-bit samples are not supported")
             raw = wf.readframes(frames)
@@ -156,7 +236,7 @@ def _decode_wav(data: bytes, where: str) -> Audio:
     return _finish(where, np.clip(np.round(mono), -32768, 32767), rate)
 
 
-def _decode_ogg(data: bytes, where: str) -> Audio:
+def _decode_ogg(data: bytes, where: str, max_seconds: float = MAX_NARRATION_SECONDS) -> Audio:
     try:
         import soundfile  # optional: soundfile/libsndfile (desktop; absent on Android)
     except (ImportError, OSError):
@@ -164,7 +244,7 @@ def _decode_ogg(data: bytes, where: str) -> Audio:
                              "use a WAV file") from None
     try:
         with soundfile.SoundFile(io.BytesIO(data)) as sf:
-            _check_header(where, int(sf.samplerate), int(sf.channels), int(sf.frames))
+            _check_header(where, int(sf.samplerate), int(sf.channels), int(sf.frames), max_seconds)
             frames, channels, rate = int(sf.frames), int(sf.channels), int(sf.samplerate)
             block = sf.read(frames, dtype="int16", always_2d=True)
     except (RuntimeError, soundfile.LibsndfileError, ValueError, TypeError) as exc:
@@ -176,33 +256,38 @@ def _decode_ogg(data: bytes, where: str) -> Audio:
     return _finish(where, np.round(block.astype(np.float64).mean(axis=1)), rate)
 
 
-def decode_audio(data: bytes, where: str) -> Audio:
-    """Decode and check narration bytes (WAV or OGG, told apart by content); ``where``
-    names the source in messages. Raises :class:`NarrationError`."""
-    if len(data) > MAX_NARRATION_FILE_BYTES:
+def decode_audio(data: bytes, where: str, max_seconds: float = MAX_NARRATION_SECONDS,
+                 max_bytes: int = MAX_NARRATION_FILE_BYTES) -> Audio:
+    """Decode and check narration bytes (WAV -- integer PCM or IEEE float -- or OGG, told
+    apart by content); ``where`` names the source in messages. ``max_seconds`` and
+    ``max_bytes`` default to a stored narration's limits (an import passes its larger
+    ones). Raises :class:`NarrationError`."""
+    if len(data) > max_bytes:
         raise NarrationError(f"{where}: {len(data) / 2**20:.1f} MB; an audio file may be at most "
-                             f"{MAX_NARRATION_FILE_BYTES // 2**20} MB")
+                             f"{max_bytes // 2**20} MB", "too_big")
     if not data:
-        raise NarrationError(f"{where}: the file is empty")
+        raise NarrationError(f"{where}: the file is empty", "silent")
     if data[:4] == b"RIFF" and data[8:12] == b"WAVE":
-        return _decode_wav(data, where)
+        return _decode_wav(data, where, max_seconds)
     if data[:4] == b"OggS":
-        return _decode_ogg(data, where)
+        return _decode_ogg(data, where, max_seconds)
     raise NarrationError(f"{where}: not a WAV or OGG audio file")
 
 
 def read_audio(path: str | Path) -> Audio:
-    """Read and check an audio file to import (size checked before reading)."""
+    """Read and check an audio file to import (size checked before reading). It may be
+    up to :data:`MAX_IMPORT_SECONDS` long: :func:`trim` cuts the part to keep, and
+    :func:`store_narration` refuses anything still over :data:`MAX_NARRATION_SECONDS`."""
     path = Path(path)
     try:
         size = os.stat(path).st_size
-        if size > MAX_NARRATION_FILE_BYTES:
+        if size > MAX_IMPORT_FILE_BYTES:
             raise NarrationError(f"{path}: {size / 2**20:.1f} MB; an audio file may be at most "
-                                 f"{MAX_NARRATION_FILE_BYTES // 2**20} MB")
+                                 f"{MAX_IMPORT_FILE_BYTES // 2**20} MB", "too_big")
         data = path.read_bytes()
     except OSError as exc:
         raise NarrationError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    return decode_audio(data, str(path))
+    return decode_audio(data, str(path), MAX_IMPORT_SECONDS, MAX_IMPORT_FILE_BYTES)
 
 
 def trim(audio: Audio, start: float = 0.0, end: float | None = None, where: str = "narration") -> Audio:
@@ -239,7 +324,7 @@ def check_story_total(story: Story, scene_id: str, seconds: float, where: str = 
     others = sum(s.narration.seconds for s in story.scenes if s.narration is not None and s.id != scene_id)
     if others + seconds > MAX_STORY_NARRATION_SECONDS:
         raise NarrationError(f"{where}: this story already has {_seconds_text(others)} of narration; "
-                             f"all scenes together may have at most {MAX_STORY_NARRATION_SECONDS:.0f} s")
+                             f"all scenes together may have at most {MAX_STORY_NARRATION_SECONDS:.0f} s", "story_full")
 
 
 def store_narration(store: AssetStore, story: Story, scene_id: str, audio: Audio,
@@ -249,6 +334,9 @@ def store_narration(store: AssetStore, story: Story, scene_id: str, audio: Audio
     given (an undoable step; the app's autosave saves it), else directly. See the module
     docstring for why a SIGKILL at any moment loses at most this narration."""
     story.scene(scene_id)  # StoryError for an unknown scene, before anything is written
+    if audio.seconds > MAX_NARRATION_SECONDS + 1e-9:
+        raise NarrationError(f"{where}: {_seconds_text(audio.seconds)} long; a scene's narration may be at most "
+                             f"{MAX_NARRATION_SECONDS:.0f} s: trim it", "too_long")
     check_story_total(story, scene_id, audio.seconds, where)
     wav = encode_wav(audio)
     name = asset_name(wav)
@@ -283,7 +371,7 @@ def load_narration(store: AssetStore, story: Story, scene_id: str) -> Audio | No
     try:
         data = store.read_asset(story.id, narration.asset)
     except StoryBeamError as exc:
-        raise NarrationError(f"{where}: missing ({exc})") from None
+        raise NarrationError(f"{where}: missing ({exc})", "missing") from None
     return decode_audio(data, where)
 
 
@@ -331,7 +419,8 @@ def check_package_narrations(story: Story, assets: dict[str, bytes], where: str)
                              f"{MAX_STORY_NARRATION_SECONDS:.0f} s")
 
 
-__all__ = ["AssetStore", "NarrationEditor", "ACCEPTED_RATES", "MIN_NARRATION_SECONDS", "MAX_NARRATION_FILE_BYTES", "MAX_STORY_NARRATION_SECONDS",
+__all__ = ["AssetStore", "NarrationEditor", "ACCEPTED_RATES", "MIN_NARRATION_SECONDS", "MAX_NARRATION_FILE_BYTES",
+           "MAX_IMPORT_FILE_BYTES", "MAX_IMPORT_SECONDS", "MAX_STORY_NARRATION_SECONDS",
            "MAX_CHANNELS", "ASSET_PREFIX", "NarrationError", "Audio", "decode_audio", "read_audio", "trim",
            "encode_wav", "asset_name", "check_story_total", "store_narration", "import_narration", "load_narration",
            "referenced_assets", "prune_narrations", "check_package_narrations"]

@@ -53,7 +53,8 @@ from app.services.act_it_out import (
     pose_runtime_problem,
 )
 from app.ui.art import MOTION_COLOURS
-from app.ui.clip_tiles import ClipTile
+from app.ui.clip_tiles import ClipTile, clip_tile_name
+from app.ui.notices import NoticePicture, log_notice, notice_sentence
 from app.ui.widgets import IconButton, big_label, filled, tile_grid
 from retrieval.errors import StoryBeamError
 
@@ -359,7 +360,7 @@ class ActItOutView(ModalView):
             try:
                 self._camera = open_act_camera(App.get_running_app())
             except StoryBeamError as exc:
-                return self._fail(str(exc))
+                return self._fail(str(exc), "no_camera")
         self._thread = threading.Thread(target=self._work, name="storybeam-act-it-out", daemon=True)
         self._thread.start()
         self.library.when_ready(lambda: Clock.schedule_once(lambda dt: self._library_ready(), 0))
@@ -372,11 +373,20 @@ class ActItOutView(ModalView):
             self.state = "ready"
             self._set_start(True)
 
-    def _fail(self, why: str) -> None:
+    def _fail(self, why: str, notice: str = "oops") -> None:
+        """Act it out cannot go on: the notice's picture and sentence (spoken) for the child,
+        the reason in the log."""
         self._closing.set()  # the worker stops and closes the camera; Back closes the view
-        self.state, self.error = "failed", why
-        log.warning("act it out unavailable: %s", why)
-        self.status.text = self.t("act_unavailable", why=why)
+        self.state, self.error, self.notice = "failed", why, notice
+        log_notice(notice, f"act it out unavailable: {why}")
+        self.status.text = notice_sentence(self.t, notice)
+        parent = self.prompt.parent
+        if parent is not None and getattr(self, "notice_picture", None) is None:
+            self.notice_picture = NoticePicture(notice, size_hint_y=None, height=dp(PROMPT_DP))
+            parent.add_widget(self.notice_picture, index=parent.children.index(self.prompt))
+        app = App.get_running_app()
+        if getattr(app, "speaker", None) is not None:
+            app.speaker.say(self.status.text, app.lang)
         self._set_start(False)
 
     def _set_start(self, on: bool) -> None:
@@ -484,8 +494,8 @@ class ActItOutView(ModalView):
         self.state = "results"
         self.status.text = self.t("act_found") if hits else self.t("no_clips")
         for h in hits:
-            name = self.t(f"motion_{h.label}") if h.label in MOTION_COLOURS else h.label
-            tile = ClipTile(h.trial, f"{name}  {h.trial}", h.label if h.label in MOTION_COLOURS else "more",
+            name = clip_tile_name(self.t, h.label, h.trial, App.get_running_app().catalog.number_of)
+            tile = ClipTile(h.trial, name, h.label if h.label in MOTION_COLOURS else "more",
                             MOTION_COLOURS.get(h.label, (0.4, 0.4, 0.4)), self.thumbs, lambda h=h: self._pick(h))
             self.tiles.append(tile)
             self.grid.add_widget(tile)

@@ -24,13 +24,14 @@ from kivy.utils import platform
 from app.paths import FONT_PATH
 from app.player import RenderThread, StageJob, app_exporter, available
 from app.player.app_renderer import has_calibration, kivy_camera_index
-from app.services import MotionCatalog, ThumbnailCache
+from app.services import MotionCatalog, ThumbnailCache, find_speaker
 from app.story import ProfileStore, Scene, StorageError, Story, StoryEditor, demo_story, prune_narrations
 from app.ui.editor import EditorScreen
 from app.ui.home import HomeScreen
 from app.ui.play import PlayScreen, ProjectorScreen
 from app.ui.projector_window import ProjectorWindow, second_display
-from app.ui.strings import LANGUAGES, tr
+from app.ui.notices import NoticeToast, log_notice, notice_for, notice_sentence
+from app.ui.strings import LANGUAGES, device_language, tr
 from app.ui.teacher import CalibrationScreen, PinScreen, TeacherScreen
 from app.ui.widgets import big_label, filled
 from retrieval.errors import StoryBeamError
@@ -88,6 +89,9 @@ class StoryBeamApp(App):
         #: the projector's own window on a second display while the projector screen shows
         #: (:mod:`app.ui.projector_window`)
         self.projector_window = None
+        #: says notices aloud (:mod:`app.services.speech`); tests give a recording stand-in
+        self.speaker = find_speaker(platform)
+        self.last_notice: str | None = None
 
     # -- set-up ---------------------------------------------------------------------
     @property
@@ -118,7 +122,7 @@ class StoryBeamApp(App):
         register_fonts()
         self._open_store()
         saved_lang = self.store.get_setting("language")
-        self.lang = self.requested_lang or (saved_lang if saved_lang in LANGUAGES else "ja")
+        self.lang = self.requested_lang or (saved_lang if saved_lang in LANGUAGES else device_language(platform))
         if self.renderer_factory is not None:
             self.renderer = RenderThread(self.renderer_factory,
                                          lambda cb, frame: Clock.schedule_once(lambda dt: cb(frame), 0))
@@ -185,7 +189,7 @@ class StoryBeamApp(App):
         try:
             story = self.store.load_story(story_id)
         except StorageError as exc:
-            self.show_message(self.t("error", why=str(exc)))
+            self.show_error(exc)
             return False
         prune_narrations(self.store, story)  # voices the saved story no longer uses (app.story.narration)
         self._edit(story)
@@ -215,7 +219,7 @@ class StoryBeamApp(App):
             self.store.save_story(story)
             self.store.log_activity("edit", story.id, label)
         except StorageError as exc:
-            self.show_message(self.t("error", why=str(exc)))
+            self.show_error(exc)
 
     def present_all(self) -> None:
         """Teacher: play every story on the projector one after another (newest last)."""
@@ -233,6 +237,35 @@ class StoryBeamApp(App):
         self.sm.current = "projector"
 
     # -- feedback and rendering -----------------------------------------------------
+    def show_notice(self, notice: str, detail: object = None, seconds: float = 5.0) -> None:
+        """Tell the child what cannot be done: the notice's picture, its sentence for the
+        grown-ups, the sentence spoken where the device can speak (:mod:`app.ui.notices`).
+        ``detail`` (an exception, a reason) goes to the log, never to the screen."""
+        log_notice(notice, detail)
+        sentence = notice_sentence(self.t, notice)
+        from kivy.core.window import Window  # deferred: the window exists once the app runs
+        old = getattr(self, "_toast", None)
+        if old is not None and old.parent is not None:
+            old.parent.remove_widget(old)
+        w, h = Window.size
+        side = min(0.3 * w, 0.4 * h)
+        toast = NoticeToast(notice, sentence, size_hint=(None, None), size=(max(side * 1.3, dp(260)), side),
+                            pos=(0, 0))
+        toast.pos = ((w - toast.width) / 2, h - toast.height - dp(24))
+        Window.add_widget(toast)
+        self._toast = toast
+        self.last_notice, self.last_message = notice, sentence
+        self.speaker.say(sentence, self.lang)
+
+        def remove(_dt) -> None:
+            if toast.parent is not None:
+                toast.parent.remove_widget(toast)
+        Clock.schedule_once(remove, seconds)
+
+    def show_error(self, exc: BaseException) -> None:
+        """:meth:`show_notice` for an error a child met (:func:`app.ui.notices.notice_for`)."""
+        self.show_notice(notice_for(exc), exc)
+
     def show_message(self, text: str, seconds: float = 4.0) -> None:
         view = ModalView(size_hint=(0.6, 0.3))
         box = filled(BoxLayout(padding=dp(16)), (1, 0.95, 0.85, 1))
@@ -287,7 +320,7 @@ class StoryBeamApp(App):
         except StoryBeamError as exc:
             self._rig_camera_failed = True
             log.warning("%s; the projector uses the synthetic rig", exc)
-            self.show_message(self.t("error", why=str(exc)))
+            self.show_error(exc)
         return self.rig_camera
 
     def open_projector_window(self):
@@ -304,7 +337,7 @@ class StoryBeamApp(App):
                     display, headless=os.environ.get("SDL_VIDEODRIVER") == "offscreen")
         except StoryBeamError as exc:
             log.warning("no projector window: %s", exc)
-            self.show_message(self.t("error", why=str(exc)))
+            self.show_error(exc)
         return self.projector_window
 
     def feed_projector_window(self, light) -> None:

@@ -187,6 +187,41 @@ def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, f
         for strip in ([(0.72, 0.7), (0.72, 0.38)], [(0.52, 0.82), (0.72, 0.62), (0.92, 0.82)],
                       [(0.6, 0.06), (0.72, 0.38), (0.84, 0.06)]):
             Line(points=[c for p in strip for c in P(*p)], width=lw, cap="round", joint="round")
+    elif name == "record":  # a red dot, as on every recorder
+        Color(0.85, 0.15, 0.15)
+        Ellipse(pos=P(0.2, 0.2), size=(0.6 * s, 0.6 * s))
+    elif name == "stop":
+        Rectangle(pos=P(0.24, 0.24), size=(0.52 * s, 0.52 * s))
+    elif name == "keep":  # a tick
+        Color(0.15, 0.6, 0.25)
+        Line(points=[*P(0.15, 0.5), *P(0.4, 0.22), *P(0.88, 0.8)], width=lw * 1.5, cap="round", joint="round")
+    elif name == "voice":  # a microphone
+        RoundedRectangle(pos=P(0.38, 0.42), size=(0.24 * s, 0.46 * s), radius=[0.12 * s])
+        Line(circle=(*P(0.5, 0.55), 0.22 * s, 90, 270), width=lw)
+        Line(points=[*P(0.5, 0.33), *P(0.5, 0.12), *P(0.34, 0.12), *P(0.66, 0.12)], width=lw)
+    elif name == "similar":  # "more like this": a figure and a fainter one like it beside it
+        head, strips = _POSES["walk"]
+        for du, alpha in ((0.42, 0.45), (0.0, 1.0)):
+            Color(*colour, alpha)
+            hx, hy = P(head[0] * 0.6 + du + 0.0, head[1] * 0.9 + 0.05)
+            Ellipse(pos=(hx - 0.07 * s, hy - 0.07 * s), size=(0.14 * s, 0.14 * s))
+            for strip in strips:
+                Line(points=[c for p in strip for c in P(p[0] * 0.6 + du, p[1] * 0.9 + 0.05)], width=lw * 0.8,
+                     cap="round", joint="round")
+    elif name == "pose":  # a figure with arms out inside the corners of a frame
+        for (u, v, du, dv) in ((0.05, 0.05, 1, 1), (0.95, 0.05, -1, 1), (0.05, 0.95, 1, -1), (0.95, 0.95, -1, -1)):
+            Line(points=[*P(u + 0.18 * du, v), *P(u, v), *P(u, v + 0.18 * dv)], width=lw * 0.7)
+        hx, hy = P(0.5, 0.76)
+        Ellipse(pos=(hx - 0.08 * s, hy - 0.08 * s), size=(0.16 * s, 0.16 * s))
+        for strip in ([(0.5, 0.67), (0.5, 0.4)], [(0.22, 0.62), (0.5, 0.6), (0.78, 0.62)],
+                      [(0.36, 0.14), (0.5, 0.4), (0.64, 0.14)]):
+            Line(points=[c for p in strip for c in P(*p)], width=lw, cap="round", joint="round")
+    elif name == "groups":  # dots gathered into three rings
+        for cu, cv in ((0.28, 0.68), (0.72, 0.68), (0.5, 0.28)):
+            Line(circle=(*P(cu, cv), 0.2 * s), width=lw * 0.6)
+            for du, dv in ((-0.07, -0.05), (0.07, -0.05), (0.0, 0.07)):
+                cx, cy = P(cu + du, cv + dv)
+                Ellipse(pos=(cx - 0.04 * s, cy - 0.04 * s), size=(0.08 * s, 0.08 * s))
     elif name in ("sky", "grass", "night", "sea", "castle", "forest", "space", "sand"):
         draw_background(name, x, y, s, s)
     else:  # unknown: a plain dot, never an empty button

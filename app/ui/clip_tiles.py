@@ -14,9 +14,37 @@ from kivy.metrics import dp
 from kivy.uix.widget import Widget
 
 from app.services import BONES, HEAD, StickFrames, ThumbnailCache
+from app.ui.art import MOTION_COLOURS
 from app.ui.widgets import IconButton
 
 POSES_PER_SECOND = 6.0
+
+
+def clip_tile_name(t: Callable[..., str], label: str, trial: str, number_of: Callable[[str], int | None]) -> str:
+    """What a clip's tile says: its class and its number among that class's clips
+    ("Run 3"), never a capture id ("Run 02_03") -- the tile's moving figure is the real
+    name; the number only tells two tiles apart. ``number_of`` is
+    :meth:`app.services.catalog.MotionCatalog.number_of`."""
+    name = t(f"motion_{label}") if label in MOTION_COLOURS else label
+    number = number_of(trial)
+    return f"{name} {number}" if number is not None else name
+
+
+def numbered_names(names: list[str]) -> list[str]:
+    """Names made distinct where they repeat: two groups both named "Kick" become
+    "Kick 1" and "Kick 2"; a name used once stays as it is."""
+    counts: dict[str, int] = {}
+    for n in names:
+        counts[n] = counts.get(n, 0) + 1
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:
+        if counts[n] == 1:
+            out.append(n)
+        else:
+            seen[n] = seen.get(n, 0) + 1
+            out.append(f"{n} {seen[n]}")
+    return out
 
 
 class StickFigureView(Widget):

@@ -18,11 +18,11 @@ from kivy.uix.widget import Widget
 from app.services.act_it_out import act_it_out_allowed
 from app.story import BACKGROUNDS, CHARACTER_KINDS, MOTION_CLASSES, find_spins, hop_time
 from app.ui.art import MOTION_COLOURS, draw_background, draw_character_badge
-from app.ui.clip_tiles import ClipTile
+from app.ui.clip_tiles import ClipTile, clip_tile_name
 from app.ui.pose_picker import GroupBrowser, PosePicker
 from app.ui.narration import voice_button
 from app.ui.table_view import TableView, normalise_times
-from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
+from app.ui.widgets import BUTTON_DP, MIN_TOUCH_DP, IconButton, big_label, compact_screen, filled, window_dp
 from retrieval.errors import StoryBeamError
 
 THUMB_DP = 96
@@ -148,9 +148,20 @@ class EditorScreen(Screen):
         if scene is not None and scene.characters and app.selected_character_id not in [c.id for c in scene.characters]:
             app.selected_character_id = scene.characters[0].id
         root = filled(BoxLayout(spacing=dp(8), padding=dp(8)), (0.96, 0.93, 0.85, 1))
+        # Sizes for this screen (dp): narrower columns and shorter rows on a small tablet; the
+        # right column's rows share its height (never under the 48 dp touch minimum).
+        win_w, win_h = window_dp()
+        compact = compact_screen()
+        left_w, right_w, label_size = (140, 280, 13) if compact else (170, 300, 16)
+        label_h = label_size * 1.9
+        fixed = 3 * label_h + 52 + 7 * 4 + 16
+        unit = max(MIN_TOUCH_DP, min(BUTTON_DP, (win_h - fixed) / 6.9))
+        centre_w = win_w - left_w - right_w - 32
+        bar_w = max(MIN_TOUCH_DP, min(90, (centre_w - 6 * 6 - 2) / 6))  # six buttons, a spacer: six gaps
+        bar_font = dp(15) if bar_w >= 86 else dp(12)
 
         # -- left: scene strip -------------------------------------------------------
-        left = BoxLayout(orientation="vertical", size_hint_x=None, width=dp(170), spacing=dp(6))
+        left = BoxLayout(orientation="vertical", size_hint_x=None, width=dp(left_w), spacing=dp(6))
         self.strip = SceneStrip(on_select=self.select_scene, on_move=self.move_scene)
         story = app.editor.story
         for i, s in enumerate(story.scenes):
@@ -168,24 +179,28 @@ class EditorScreen(Screen):
 
         # -- centre: top bar + table -------------------------------------------------
         centre = BoxLayout(orientation="vertical", spacing=dp(6))
-        bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(6))
-        bar.add_widget(IconButton("home", t("home"), on_press=app.go_home, size_hint_x=None, width=dp(90)))
-        self.undo_button = IconButton("undo", t("undo"), on_press=self.undo, size_hint_x=None, width=dp(90))
-        self.redo_button = IconButton("redo", t("redo"), on_press=self.redo, size_hint_x=None, width=dp(90))
+        bar = BoxLayout(size_hint_y=None, height=dp(unit if compact else BUTTON_DP), spacing=dp(6))
+        small = {"size_hint_x": None, "width": dp(bar_w), "font_size": bar_font}
+        bar.add_widget(IconButton("home", t("home"), on_press=app.go_home, **small))
+        self.undo_button = IconButton("undo", t("undo"), on_press=self.undo, **small)
+        self.redo_button = IconButton("redo", t("redo"), on_press=self.redo, **small)
         self.undo_button.opacity = 1.0 if app.editor.can_undo else 0.45
         self.redo_button.opacity = 1.0 if app.editor.can_redo else 0.45
         bar.add_widget(self.undo_button)
         bar.add_widget(self.redo_button)
         bar.add_widget(Widget())
-        self.voice_button = voice_button(self)  # the scene's narration (app.ui.narration)
+        self.voice_button = voice_button(self, **small)  # the scene's narration (app.ui.narration)
         bar.add_widget(self.voice_button)
-        self.play_button = IconButton("play", t("play"), on_press=lambda: app.go("play"), size_hint_x=None,
-                                      width=dp(90), background=[0.75, 0.95, 0.75, 1])
+        self.play_button = IconButton("play", t("play"), on_press=lambda: app.go("play"),
+                                      background=[0.75, 0.95, 0.75, 1], **small)
         bar.add_widget(self.play_button)
-        bar.add_widget(IconButton("projector", t("projector"), on_press=lambda: app.go("projector"),
-                                  size_hint_x=None, width=dp(100)))
+        self.projector_button = IconButton("projector", t("projector"), on_press=lambda: app.go("projector"),
+                                           **small)
+        bar.add_widget(self.projector_button)
         centre.add_widget(bar)
-        self.table = TableView(scene=scene, selected_id=app.selected_character_id or "")
+        stroke = self.pending_stroke()
+        self.table = TableView(scene=scene, selected_id=app.selected_character_id or "",
+                               pending=[p[:2] for p in stroke] if stroke else [])
         self.table.bind(on_sketch=self.on_sketch)
         centre.add_widget(self.table)
         hint = t("draw_hint") if scene is not None and scene.characters else t("pick_character_hint")
@@ -194,9 +209,9 @@ class EditorScreen(Screen):
         root.add_widget(centre)
 
         # -- right: choices ------------------------------------------------------------
-        right = BoxLayout(orientation="vertical", size_hint_x=None, width=dp(300), spacing=dp(4))
-        right.add_widget(big_label(t("background"), 16))
-        bg_grid = GridLayout(cols=4, spacing=dp(4), size_hint_y=None, height=dp(2 * 70 + 4))
+        right = BoxLayout(orientation="vertical", size_hint_x=None, width=dp(right_w), spacing=dp(4))
+        right.add_widget(big_label(t("background"), label_size))
+        bg_grid = GridLayout(cols=4, spacing=dp(4), size_hint_y=None, height=dp(2 * 0.92 * unit + 4))
         self.background_buttons = {}
         for name in BACKGROUNDS:
             b = IconButton(name, t(f"bg_{name}"), on_press=lambda n=name: self.set_background(n),
@@ -204,8 +219,8 @@ class EditorScreen(Screen):
             self.background_buttons[name] = b
             bg_grid.add_widget(b)
         right.add_widget(bg_grid)
-        right.add_widget(big_label(t("characters"), 16))
-        add_row = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(BUTTON_DP))
+        right.add_widget(big_label(t("characters"), label_size))
+        add_row = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(unit))
         self.character_buttons = {}
         for kind in CHARACTER_KINDS:
             b = IconButton(kind, "+ " + t(f"char_{kind}"), on_press=lambda k=kind: self.add_character(k),
@@ -224,8 +239,8 @@ class EditorScreen(Screen):
         self.remove_button.disabled = self.selected_character() is None
         cast_line.add_widget(self.remove_button)
         right.add_widget(cast_line)
-        right.add_widget(big_label(t("motion"), 16))
-        motion_grid = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(2 * BUTTON_DP + 4))
+        right.add_widget(big_label(t("motion"), label_size))
+        motion_grid = GridLayout(cols=3, spacing=dp(4), size_hint_y=None, height=dp(2 * unit + 4))
         selected = self.selected_character()
         self.motion_buttons = {}
         for name in (*MOTION_CLASSES, "more"):
@@ -235,16 +250,16 @@ class EditorScreen(Screen):
             self.motion_buttons[name] = b
             motion_grid.add_widget(b)
         right.add_widget(motion_grid)
-        likes = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
-        likes.add_widget(IconButton("more", t("more_like_this"), on_press=self.more_like_this, font_size=dp(14)))
+        likes = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(0.84 * unit))
+        likes.add_widget(IconButton("similar", t("more_like_this"), on_press=self.more_like_this, font_size=dp(14)))
         self.act_button = None  # "Act it out" (app.ui.act_view), unless the teacher switched the camera off
         if act_it_out_allowed(app.store):
             self.act_button = IconButton("act", t("act_it_out"), on_press=self.act_it_out, font_size=dp(14))
             likes.add_widget(self.act_button)
         right.add_widget(likes)
-        finders = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(64))
-        self.pose_button = IconButton("jump", t("pose_button"), on_press=self.search_by_pose, font_size=dp(14))
-        self.groups_button = IconButton("duplicate", t("groups_button"), on_press=self.browse_groups,
+        finders = BoxLayout(spacing=dp(4), size_hint_y=None, height=dp(0.84 * unit))
+        self.pose_button = IconButton("pose", t("pose_button"), on_press=self.search_by_pose, font_size=dp(14))
+        self.groups_button = IconButton("groups", t("groups_button"), on_press=self.browse_groups,
                                         font_size=dp(14))
         finders.add_widget(self.pose_button)
         finders.add_widget(self.groups_button)
@@ -254,6 +269,13 @@ class EditorScreen(Screen):
         self.add_widget(root)
 
     # -- helpers ----------------------------------------------------------------------
+    def pending_stroke(self) -> list | None:
+        """The stroke drawn in this scene before it had a character, if any."""
+        pending = getattr(App.get_running_app(), "pending_stroke", None)
+        if pending is None or self.scene is None or pending[0] != self.scene.id:
+            return None
+        return pending[1]
+
     def selected_character(self):
         app = App.get_running_app()
         scene = self.scene
@@ -267,7 +289,7 @@ class EditorScreen(Screen):
         try:
             action(app.editor)
         except StoryBeamError as exc:
-            app.show_message(app.t("error", why=str(exc)))
+            app.show_error(exc)
             return
         self.refresh()
 
@@ -312,9 +334,17 @@ class EditorScreen(Screen):
         if self.scene is None:
             return
 
+        scene_id, stroke = self.scene.id, self.pending_stroke()
+
         def action(ed):
-            app.selected_character_id = ed.add_character(self.scene.id, kind).id
+            character = ed.add_character(scene_id, kind)
+            app.selected_character_id = character.id
+            if stroke:  # the line drawn before anyone was there: the new character's path
+                cleaned, spins = find_spins(normalise_times(stroke))
+                ed.set_path(scene_id, character.id, cleaned, spins)
         self._edit(action)
+        app.pending_stroke = None
+        self.table.pending = []
 
     def remove_character(self) -> None:
         character = self.selected_character()
@@ -328,7 +358,7 @@ class EditorScreen(Screen):
     def choose_motion(self, name: str, clip_id: str | None = None) -> None:
         character = self.selected_character()
         if character is None:
-            App.get_running_app().show_message(App.get_running_app().t("pick_character_hint"))
+            App.get_running_app().show_notice("add_someone")
             return
         if name == "more":
             self.more_like_this(show_all=True)
@@ -342,7 +372,7 @@ class EditorScreen(Screen):
         character = self.selected_character()
         catalog = app.catalog
         if character is None:
-            app.show_message(t("pick_character_hint"))
+            app.show_notice("add_someone")
             return
         catalog.start_index()
         if show_all:
@@ -363,8 +393,7 @@ class EditorScreen(Screen):
             def pick(clip=clip):
                 view.dismiss()
                 self._edit(lambda ed: ed.set_motion(self.scene.id, character.id, clip.label, clip.trial))
-            name = t(f"motion_{clip.label}") if clip.label in MOTION_COLOURS else clip.label
-            tile = ClipTile(clip.trial, f"{name}  {clip.trial}", icon,
+            tile = ClipTile(clip.trial, clip_tile_name(t, clip.label, clip.trial, catalog.number_of), icon,
                             MOTION_COLOURS.get(clip.label, (0.4, 0.4, 0.4)), thumbs, pick,
                             selected=clip.trial == character.motion.clip_id)
             self.clip_tiles.append(tile)
@@ -389,7 +418,7 @@ class EditorScreen(Screen):
         """Open the posable figure (:class:`app.ui.pose_picker.PosePicker`)."""
         app = App.get_running_app()
         if self.selected_character() is None:
-            app.show_message(app.t("pick_character_hint"))
+            app.show_notice("add_someone")
             return
         self.pose_view = PosePicker(on_pick=self._pick_clip)
         self.pose_view.open()
@@ -399,7 +428,7 @@ class EditorScreen(Screen):
         movement; the motion picked from the nearest ones goes to the selected character."""
         app = App.get_running_app()
         if self.selected_character() is None:
-            app.show_message(app.t("pick_character_hint"))
+            app.show_notice("add_someone")
             return
         if not act_it_out_allowed(app.store):  # switched off since the screen was drawn
             self.refresh()
@@ -413,7 +442,7 @@ class EditorScreen(Screen):
         """Open the library's own groups (:class:`app.ui.pose_picker.GroupBrowser`)."""
         app = App.get_running_app()
         if self.selected_character() is None:
-            app.show_message(app.t("pick_character_hint"))
+            app.show_notice("add_someone")
             return
         self.group_view = GroupBrowser(on_pick=self._pick_clip)
         self.group_view.open()
@@ -432,8 +461,12 @@ class EditorScreen(Screen):
         app = App.get_running_app()
         scene = self.scene
         character = self.selected_character()
-        if scene is None or character is None:
-            app.show_message(app.t("pick_character_hint"))
+        if scene is None:
+            return
+        if character is None:  # kept: the next character added walks it (drawn dashed till then)
+            app.pending_stroke = (scene.id, list(points))
+            self.table.pending = [p[:2] for p in points]
+            app.show_notice("add_someone")
             return
         if character.path:
             at = hop_time(points, character.path)

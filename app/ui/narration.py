@@ -8,8 +8,10 @@ projector.
   shown), *Sound file* (big tiles of the WAV/OGG files in the profile's inbox, its import
   folder and downloads: no typing, no file dialog), then two big sliders to trim the new
   voice and *Keep* -- :func:`app.story.narration.store_narration` through the story editor,
-  so it is undoable and autosaved, crash-safely. A refused file is named with the reason
-  and nothing is stored.
+  so it is undoable and autosaved, crash-safely. A sound longer than a scene's voice may
+  be is imported whole, its end slider set at the longest a voice may be. A refused file
+  is shown as a notice -- a picture and one sentence (:mod:`app.ui.notices`), spoken where
+  the device can speak -- its reason logged, and nothing is stored.
 * :class:`NarrationPlayback` -- driven by the play screens' clock with (scene, time in the
   scene, playing?): starts the scene's voice with Kivy's ``SoundLoader`` at the scene's
   start, seeks to the scene time when playback starts mid-scene or the child scrubs
@@ -34,8 +36,9 @@ from kivy.uix.modalview import ModalView
 from kivy.uix.slider import Slider
 
 from app.services.recording import ChunkRecorder, discard_stale, find_recorder
-from app.story import Audio, Scene, encode_wav, read_audio, store_narration, trim
+from app.story import MAX_NARRATION_SECONDS, Audio, Scene, encode_wav, read_audio, store_narration, trim
 from app.ui.import_picker import package_folders
+from app.ui.notices import NoticePicture, log_notice, notice_for, notice_sentence
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, file_tiles, filled, newest_files
 from retrieval.errors import StoryBeamError
 
@@ -159,7 +162,8 @@ class NarrationPanel(ModalView):
         self.scene_id = scene_id
         self.on_done = on_done
         self.pending: Audio | None = None  # a new voice waiting to be trimmed and kept
-        self.message = ""
+        self.message = ""  # the sentence of the notice shown, if any
+        self.notice: str | None = None  # the notice shown in the status line (app.ui.notices)
         self.recorder: ChunkRecorder | None = None
         self.file_tiles: dict[str, IconButton] = {}
         self.listening = None
@@ -168,10 +172,12 @@ class NarrationPanel(ModalView):
         discard_stale(self.folder)  # what a crash during an earlier recording left behind
         make_source, self.record_reason = recorder_finder()
         self.make_source = make_source
+        self.record_notice: str | None = None  # why there is no Record button, as a notice
         if not recording_allowed(app.store):
-            self.make_source, self.record_reason = None, app.t("recording_off")
+            self.make_source, self.record_notice = None, "recording_off"
         elif make_source is None:
-            self.record_reason = app.t("recording_unavailable", why=self.record_reason)
+            log_notice("no_microphone", self.record_reason)
+            self.record_notice = "no_microphone"
         self.bind(on_dismiss=lambda *_: self._closing())
         self.refresh()
 
@@ -186,13 +192,19 @@ class NarrationPanel(ModalView):
         self.clear_widgets()
         box = filled(BoxLayout(orientation="vertical", padding=dp(14), spacing=dp(8)), (1, 0.97, 0.9, 1))
         box.add_widget(big_label(t("narration_title"), 22))
+        status_row = BoxLayout(size_hint_y=None, height=dp(72), spacing=dp(8))
+        self.status_picture = NoticePicture(self.notice or "oops", size_hint_x=None,
+                                            width=dp(72) if self.notice else 0, opacity=1 if self.notice else 0)
+        status_row.add_widget(self.status_picture)
         self.status = Label(text=self._status_text(), color=(0.1, 0.1, 0.15, 1), font_size=dp(17),
-                            size_hint_y=None, height=dp(56), halign="center", valign="middle")
+                            halign="center", valign="middle")
         self.status.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
-        box.add_widget(self.status)
+        status_row.add_widget(self.status)
+        box.add_widget(status_row)
         row = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP + 20), spacing=dp(10))
         recording = self.recorder is not None
-        self.record_button = IconButton("", t("stop_recording") if recording else t("record"),
+        self.record_button = IconButton("stop" if recording else "record",
+                                        t("stop_recording") if recording else t("record"),
                                         on_press=self.toggle_recording, font_size=dp(18),
                                         background=[1, 0.75, 0.75, 1])
         self.record_button.opacity = 1.0 if self.make_source is not None else 0.0
@@ -208,9 +220,15 @@ class NarrationPanel(ModalView):
             b.disabled, b.opacity = not usable, 1.0 if usable else 0.4
             row.add_widget(b)
         box.add_widget(row)
-        self.reason_label = Label(text="" if self.make_source is not None else self.record_reason,
-                                  color=(0.55, 0.25, 0.1, 1), font_size=dp(14), size_hint_y=None, height=dp(28))
-        box.add_widget(self.reason_label)
+        reason = BoxLayout(size_hint_y=None, height=dp(40) if self.record_notice else 0, spacing=dp(6),
+                           opacity=1 if self.record_notice else 0)
+        if self.record_notice:  # no Record button: why, as a small notice
+            reason.add_widget(NoticePicture(self.record_notice, size_hint_x=None, width=dp(40)))
+        self.reason_label = Label(text=notice_sentence(t, self.record_notice) if self.record_notice else "",
+                                  color=(0.55, 0.25, 0.1, 1), font_size=dp(14), halign="left", valign="middle")
+        self.reason_label.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
+        reason.add_widget(self.reason_label)
+        box.add_widget(reason)
         self.start_slider = self.end_slider = self.keep_button = None
         if files:
             box.add_widget(self._file_list())
@@ -239,26 +257,26 @@ class NarrationPanel(ModalView):
         files = find_audio_files(folders)
         box = BoxLayout(orientation="vertical", spacing=dp(6))
         box.add_widget(big_label(t("audio_pick"), 16))
-        scroll, self.file_tiles = file_tiles(files, lambda p: p.name, self.pick_file,
-                                             t("audio_none", where="\n".join(str(f) for f in folders)))
+        scroll, self.file_tiles = file_tiles(files, lambda p: p.name, self.pick_file, t("audio_none_here"))
         box.add_widget(scroll)
         return box
 
     def _trimmer(self):
         t = App.get_running_app().t
         length = self.pending.seconds
+        end = min(length, MAX_NARRATION_SECONDS)  # a long sound: its first part, as long as a voice may be
         box = BoxLayout(orientation="vertical", spacing=dp(6))
         self.start_label = big_label(t("trim_start", s="0.0"), 16)
         self.start_slider = Slider(min=0, max=length, value=0, cursor_size=(dp(56), dp(56)), size_hint_y=None,
                                    height=dp(64))
-        self.end_label = big_label(t("trim_end", s=f"{length:.1f}"), 16)
-        self.end_slider = Slider(min=0, max=length, value=length, cursor_size=(dp(56), dp(56)), size_hint_y=None,
+        self.end_label = big_label(t("trim_end", s=f"{end:.1f}"), 16)
+        self.end_slider = Slider(min=0, max=length, value=end, cursor_size=(dp(56), dp(56)), size_hint_y=None,
                                  height=dp(64))
         self.start_slider.bind(value=self._trimmed)
         self.end_slider.bind(value=self._trimmed)
         for w in (self.start_label, self.start_slider, self.end_label, self.end_slider):
             box.add_widget(w)
-        self.keep_button = IconButton("play", t("keep_voice"), on_press=self.keep, size_hint_y=None,
+        self.keep_button = IconButton("keep", t("keep_voice"), on_press=self.keep, size_hint_y=None,
                                       height=dp(BUTTON_DP), font_size=dp(18), background=[0.75, 0.95, 0.75, 1])
         box.add_widget(self.keep_button)
         return box
@@ -269,8 +287,25 @@ class NarrationPanel(ModalView):
         self.end_label.text = t("trim_end", s=f"{self.end_slider.value:.1f}")
 
     def _say(self, text: str) -> None:
-        self.message = text
+        self.message, self.notice = text, None
         self.status.text = self._status_text()
+
+    def _notify(self, notice: str, detail: object = None, redraw: bool = False, files: bool = False) -> None:
+        """Show ``notice`` in the status line (its picture and sentence), say it, log ``detail``."""
+        app = App.get_running_app()
+        log_notice(notice, detail)
+        self.notice, self.message = notice, notice_sentence(app.t, notice)
+        app.speaker.say(self.message, app.lang)
+        if redraw:
+            self.refresh(files=files)
+        else:
+            self.status.text = self._status_text()
+            self.status_picture.notice = notice
+            self.status_picture.width, self.status_picture.opacity = dp(72), 1
+            self.status_picture._redraw()
+
+    def _clear_notice(self) -> None:
+        self.notice, self.message = None, ""
 
     # -- actions -------------------------------------------------------------------------
     def toggle_recording(self) -> None:
@@ -289,7 +324,7 @@ class NarrationPanel(ModalView):
                                      on_limit=lambda: Clock.schedule_once(lambda dt: self._limit_reached(), 0))
             recorder.start()
         except (StoryBeamError, OSError, RuntimeError) as exc:
-            self._say(App.get_running_app().t("error", why=str(exc)))
+            self._notify("no_microphone", exc)
             return
         self.recorder = recorder
         self.pending = None
@@ -317,9 +352,9 @@ class NarrationPanel(ModalView):
                 self.pending = read_audio(path)
             finally:
                 path.unlink(missing_ok=True)
-            self.message = ""
+            self._clear_notice()
         except StoryBeamError as exc:
-            self.message = app.t("error", why=str(exc))
+            self._notify(notice_for(exc), exc)
         self.refresh()
 
     def pick_file(self, path: Path) -> None:
@@ -329,10 +364,9 @@ class NarrationPanel(ModalView):
             self.pending = read_audio(path)
         except StoryBeamError as exc:
             self.pending = None
-            self.message = app.t("error", why=str(exc))
-            self.refresh(files=True)
+            self._notify(notice_for(exc), exc, redraw=True, files=True)
             return
-        self.message = ""
+        self._clear_notice()
         self.refresh()
 
     def keep(self) -> None:
@@ -344,9 +378,10 @@ class NarrationPanel(ModalView):
             audio = trim(self.pending, self.start_slider.value, self.end_slider.value)
             store_narration(app.store, app.editor.story, self.scene_id, audio, app.editor)
         except StoryBeamError as exc:
-            self._say(app.t("error", why=str(exc)))
+            self._notify(notice_for(exc), exc)
             return
-        self.pending, self.message = None, ""
+        self.pending = None
+        self._clear_notice()
         self.refresh()
         if self.on_done:
             self.on_done()
@@ -357,9 +392,9 @@ class NarrationPanel(ModalView):
         try:
             app.editor.set_narration(self.scene_id, None)
         except StoryBeamError as exc:
-            self._say(app.t("error", why=str(exc)))
+            self._notify(notice_for(exc), exc)
             return
-        self.message = ""
+        self._clear_notice()
         self.refresh()
         if self.on_done:
             self.on_done()
@@ -374,7 +409,7 @@ class NarrationPanel(ModalView):
                 try:
                     audio = trim(audio, self.start_slider.value, self.end_slider.value)
                 except StoryBeamError as exc:
-                    self._say(App.get_running_app().t("error", why=str(exc)))
+                    self._notify(notice_for(exc), exc)
                     return
             self.folder.mkdir(parents=True, exist_ok=True)
             preview = self.folder / f"listen-{int(time.time() * 1000)}.wav"
@@ -403,7 +438,7 @@ class NarrationPanel(ModalView):
         self._stop_listening()
 
 
-def voice_button(screen) -> IconButton:
+def voice_button(screen, **kwargs) -> IconButton:
     """The editor's *Voice* button: opens the :class:`NarrationPanel` of its scene."""
     app = App.get_running_app()
     scene = screen.scene
@@ -414,9 +449,10 @@ def voice_button(screen) -> IconButton:
             return
         screen.narration_panel = NarrationPanel(screen.scene.id, on_done=screen.refresh)
         screen.narration_panel.open()
-    # a text key: no icon of art.py says "voice", and a second triangle beside Play would confuse
-    return IconButton("", app.t("narration"), on_press=open_panel, size_hint_x=None, width=dp(90),
-                      background=[1, 0.85, 0.75, 1], selected=has_voice)
+    kwargs.setdefault("size_hint_x", None)
+    kwargs.setdefault("width", dp(90))
+    return IconButton("voice", app.t("narration"), on_press=open_panel, background=[1, 0.85, 0.75, 1],
+                      selected=has_voice, **kwargs)
 
 
 __all__ = ["RECORDING_SETTING", "NarrationPanel", "NarrationPlayback", "voice_button", "recording_allowed",

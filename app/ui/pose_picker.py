@@ -28,7 +28,7 @@ from kivy.uix.modalview import ModalView
 
 from app.services import BackgroundLoad
 from app.ui.art import MOTION_COLOURS
-from app.ui.clip_tiles import ClipTile
+from app.ui.clip_tiles import ClipTile, clip_tile_name, numbered_names
 from app.ui.pose_figure import PoseFigure, PoseModel
 from app.ui.widgets import IconButton, big_label, filled, tile_grid
 from retrieval.errors import StoryBeamError
@@ -99,11 +99,6 @@ def library_extras(app) -> LibraryExtras:
     return extras
 
 
-def _clip_name(t: Callable[..., str], label: str, trial: str) -> str:
-    name = t(f"motion_{label}") if label in MOTION_COLOURS else label
-    return f"{name}  {trial}" if name else trial
-
-
 class PosePicker(ModalView):
     """Pose the figure, see the clips that pass through the pose, tap one to pick it.
     ``on_pick(label, trial)`` is called with the chosen clip."""
@@ -150,7 +145,8 @@ class PosePicker(ModalView):
         self.tiles = []
         for h in self.hits:
             start = h.frame / max(self.extras.clip_frames(h.trial) - 1, 1)
-            tile = ClipTile(h.trial, _clip_name(self.t, h.label, h.trial), h.label if h.label in MOTION_COLOURS
+            tile = ClipTile(h.trial, clip_tile_name(self.t, h.label, h.trial, App.get_running_app().catalog.number_of),
+                            h.label if h.label in MOTION_COLOURS
                             else "more", MOTION_COLOURS.get(h.label, (0.4, 0.4, 0.4)), self.thumbs,
                             lambda h=h: self._pick(h), start=start)
             self.tiles.append(tile)
@@ -189,10 +185,12 @@ class GroupBrowser(ModalView):
         self.extras.when_ready(self.show_groups)
 
     def group_name(self, number: int) -> str:
-        grp = self.extras.groups.grouping.groups[number]
-        if grp.name is None:
-            return self.t("group_n", n=number + 1)
-        return self.t(f"motion_{grp.name}") if grp.name in MOTION_COLOURS else grp.name
+        """A group's name: its class ("Kick"), numbered where two groups share one
+        ("Kick 1", "Kick 2"); an unnamed group is "Group N"."""
+        names = [self.t("group_n", n=g.number + 1) if g.name is None
+                 else self.t(f"motion_{g.name}") if g.name in MOTION_COLOURS else g.name
+                 for g in self.extras.groups.grouping.groups]
+        return numbered_names(names)[number]
 
     def show_groups(self) -> None:
         self.opened_group = None
@@ -223,7 +221,8 @@ class GroupBrowser(ModalView):
         self.group_tiles, self.clip_tiles = [], []
         for i in grp.members:
             trial, label = grouping.trials[i], grouping.labels[i]
-            tile = ClipTile(trial, _clip_name(self.t, label, trial), label if label in MOTION_COLOURS else "more",
+            tile = ClipTile(trial, clip_tile_name(self.t, label, trial, App.get_running_app().catalog.number_of),
+                            label if label in MOTION_COLOURS else "more",
                             MOTION_COLOURS.get(label, (0.4, 0.4, 0.4)), self.thumbs,
                             lambda trial=trial, label=label: self._pick(label, trial))
             self.clip_tiles.append(tile)

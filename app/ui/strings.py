@@ -6,6 +6,8 @@ and katakana a first-grader can read; kanji only where a teacher reads it (teach
 """
 from __future__ import annotations
 
+import os
+
 LANGUAGES = ("ja", "en")
 
 STRINGS: dict[str, dict[str, str]] = {
@@ -175,7 +177,54 @@ STRINGS: dict[str, dict[str, str]] = {
     "act_no_body": {"en": "I can't see you: stand in the outline", "ja": "みえないよ。わくの なかに たってね"},
     "act_unavailable": {"en": "The camera can't be used now: {why}", "ja": "いまは カメラが つかえないよ: {why}"},
     "act_setting": {"en": "Act it out (camera)", "ja": "「やってみせて」(カメラ)"},
+    # notices (app.ui.notices): a picture first; this one sentence is for the grown-ups and
+    # is spoken where the device can speak
+    "notice_add_someone": {"en": "Add a character first.", "ja": "さきに だれかを えらんでね。"},
+    "notice_sound_broken": {"en": "This sound cannot be played. Try another one.",
+                            "ja": "この おとは ならせないよ。ほかの おとに してね。"},
+    "notice_sound_long": {"en": "This sound is too long: cut it shorter.",
+                          "ja": "この おとは ながすぎるよ。みじかく きってね。"},
+    "notice_sound_silent": {"en": "Nothing was heard. Speak closer and try again.",
+                            "ja": "なにも きこえなかったよ。ちかくで もう いちど はなしてね。"},
+    "notice_no_microphone": {"en": "No microphone here: ask a grown-up.",
+                             "ja": "マイクが ないよ。おとなの ひとに きいてね。"},
+    "notice_recording_off": {"en": "Recording is switched off by the teacher.",
+                             "ja": "せんせいが ろくおんを とめて いるよ。"},
+    "notice_file_broken": {"en": "This file cannot be opened.", "ja": "この ファイルは ひらけないよ。"},
+    "notice_file_big": {"en": "This file is too big: ask a grown-up to cut it.",
+                        "ja": "この ファイルは おおきすぎるよ。おとなの ひとに きいてね。"},
+    "notice_story_full": {"en": "This story has no room for more voice.",
+                          "ja": "この おはなしには もう こえが はいらないよ。"},
+    "notice_no_camera": {"en": "The camera cannot be used now.", "ja": "いまは カメラが つかえないよ。"},
+    "notice_storage": {"en": "The stories could not be saved or opened: ask a grown-up.",
+                       "ja": "おはなしを ほぞん できなかったよ。おとなの ひとに きいてね。"},
+    "notice_grown_up": {"en": "This is for grown-ups.", "ja": "ここは おとなの ひと ようだよ。"},
+    "notice_wait": {"en": "Please wait a little.", "ja": "すこし まってね。"},
+    "notice_oops": {"en": "That did not work. Try again.", "ja": "うまく いかなかったよ。もう いちど やってみてね。"},
+    "audio_none_here": {"en": "No sounds yet: a grown-up can put WAV or OGG files in the StoryBeam folder.",
+                        "ja": "おとが まだ ないよ。おとなの ひとに いれて もらってね。"},
 }
+
+
+def device_language(platform: str, environ: dict[str, str] | None = None) -> str:
+    """The app language for the device's own (its first launch): Japanese for a Japanese
+    device, English for every other (the teacher can switch). Android: the system
+    ``Locale``; a desktop: ``LANGUAGE``, ``LC_ALL``, ``LC_MESSAGES``, ``LANG``, as gettext
+    reads them."""
+    code = ""
+    if platform == "android":  # pragma: no cover - needs an Android device
+        try:
+            from jnius import autoclass  # optional: pyjnius (Android only)
+            code = str(autoclass("java.util.Locale").getDefault().getLanguage())
+        except Exception:  # noqa: BLE001 - no locale: English
+            code = ""
+    else:
+        env = os.environ if environ is None else environ
+        for name in ("LANGUAGE", "LC_ALL", "LC_MESSAGES", "LANG"):
+            if env.get(name):
+                code = env[name].split(":")[0]
+                break
+    return "ja" if code.lower().startswith("ja") else "en"
 
 
 def tr(key: str, lang: str, **values: object) -> str:

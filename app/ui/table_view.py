@@ -12,7 +12,7 @@ import time
 
 from kivy.graphics import Color, Ellipse, InstructionGroup, Line, Rectangle
 from kivy.metrics import dp
-from kivy.properties import NumericProperty, ObjectProperty, OptionProperty, StringProperty
+from kivy.properties import ListProperty, NumericProperty, ObjectProperty, OptionProperty, StringProperty
 from kivy.uix.widget import Widget
 
 from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Scene, thin
@@ -61,6 +61,9 @@ class TableView(Widget):
     time = NumericProperty(0.0)
     mode = OptionProperty("edit", options=["edit", "preview", "projector"])
     frame_texture = ObjectProperty(None, allownone=True)  # a rendered 3-D frame, when available
+    #: a stroke drawn before there was a character to give it to (table metres): drawn
+    #: dashed until a character is added, who then takes it as its path
+    pending = ListProperty([])
 
     __events__ = ("on_sketch",)
 
@@ -68,7 +71,7 @@ class TableView(Widget):
         super().__init__(**kwargs)
         self._live = InstructionGroup()
         self.bind(pos=self.redraw, size=self.redraw, scene=self.redraw, selected_id=self.redraw,
-                  time=self.redraw, mode=self.redraw, frame_texture=self.redraw)
+                  time=self.redraw, mode=self.redraw, frame_texture=self.redraw, pending=self.redraw)
 
     # -- geometry -------------------------------------------------------------------
     @property
@@ -157,6 +160,12 @@ class TableView(Widget):
             if self.mode != "projector":
                 draw_background(scene.background, x, y, w, h)
             badge_r = max(dp(16), w * 0.028)
+            if len(self.pending) >= 2 and self.mode == "edit":
+                line = [c for p in self.pending for c in self.to_px(p[0], p[1])]
+                Color(1, 1, 1, 0.35)  # Kivy dashes only 1-px lines: a faint wide line under a dashed one
+                Line(points=line, width=dp(4), cap="round", joint="round")
+                Color(1, 1, 1, 1)
+                Line(points=line, width=1, dash_length=dp(10), dash_offset=dp(6))
             for character in scene.characters:
                 self._draw_path(character, badge_r)
             for character in scene.characters:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from kivy.app import App
 from kivy.clock import Clock
+from kivy.core.window import Window
 from kivy.metrics import dp
 from kivy.uix.boxlayout import BoxLayout
 from kivy.uix.gridlayout import GridLayout
@@ -374,6 +375,8 @@ class TeacherScreen(Screen):
         self.status = Label(text="", color=(0.1, 0.3, 0.1, 1), font_size=dp(14), halign="left", valign="top")
         self.status.bind(size=lambda lbl, s: setattr(lbl, "text_size", s))
         right.add_widget(self.status)
+        rows = -(-len(right.children) // 2)  # every row fits the window's height (a 600-px tablet too)
+        right.row_default_height = min(dp(96), (Window.height - dp(24) - (rows - 1) * dp(10)) / rows)
         root.add_widget(right)
         self.add_widget(root)
 

@@ -86,6 +86,20 @@ class IconButton(ButtonBehavior, BoxLayout):
                      width=dp(3))
 
 
+def window_dp() -> tuple[float, float]:
+    """The window's size in dp (density-independent pixels): what a layout has to fill.
+    A 1280x800 tablet at density 1.33 is 962 x 601 dp; 2560x1600 at density 2 is 1280 x 800."""
+    from kivy.core.window import Window  # deferred: the window opens when first imported
+    return Window.width / dp(1), Window.height / dp(1)
+
+
+def compact_screen() -> bool:
+    """True on a small tablet screen (under 1100 x 700 dp: 1024 x 600, 1280 x 800 at
+    density 1.33): layouts use their narrower columns and shorter rows."""
+    w, h = window_dp()
+    return w < 1100 or h < 700
+
+
 def big_label(text: str, size: float = 22, colour: tuple[float, ...] = (0.1, 0.1, 0.15, 1), **kwargs) -> Label:
     """A label with room for Japanese descenders and a readable size."""
     kwargs.setdefault("size_hint_y", None)

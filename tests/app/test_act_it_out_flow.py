@@ -28,6 +28,7 @@ from pathlib import Path
 import pytest
 
 from app.cli import main
+from app.ui.strings import tr
 from tests.support.act_video import STORED
 
 pytestmark = pytest.mark.slow  # the real pose estimator over whole videos, and the app in a child process
@@ -158,7 +159,9 @@ def test_act_it_out_runs_by_touch_on_the_tablet_profile(tablet_flow):
     assert not set(r["modules"]) & set(BLOCKED), "a blocked package was imported"
     # a camera that cannot be opened is said on the view (no crash, no take)
     assert "no such file or folder" in r["no_camera"]["error"] and r["no_camera"]["start_disabled"]
-    assert r["no_camera"]["status"].startswith("The camera can't be used now")
+    # a picture (a camera, crossed) and one sentence; the reason (a path) only in the log
+    assert r["no_camera"]["notice"] == "no_camera" and r["no_camera"]["status"] == tr("notice_no_camera", "en")
+    assert "no-such-camera" not in r["no_camera"]["status"]
     # the picture cuts the body off: the step-back picture, and the story is unchanged
     cut = r["cut"]
     assert cut["state"] == "prompt" and cut["prompt"] == "step_back" and cut["prompt_shown"], cut

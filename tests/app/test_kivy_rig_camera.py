@@ -270,7 +270,8 @@ def check(_dt):
     if frame is None and time.monotonic() - t0 < 150:
         return
     out.update(frame=frame is not None and {"live": frame.live, "state": frame.state}, tried=len(tried),
-               rig_camera=app.rig_camera is not None, message=getattr(app, "last_message", None))
+               rig_camera=app.rig_camera is not None, message=getattr(app, "last_message", None),
+               notice=getattr(app, "last_notice", None))
     app.stop()
 
 
@@ -291,7 +292,8 @@ def test_a_kivy_camera_that_does_not_open_is_said_once_and_the_show_goes_on(tmp_
     r = json.loads(lines[-1][len("RESULT "):])
     assert r["frame"] and r["frame"]["live"] is False  # the synthetic rig keeps the projector going
     assert r["tried"] == 1 and not r["rig_camera"]  # tried once on entry, not on every refresh
-    assert "camera kivy:1: Kivy cannot open this camera (camera service refused)" in r["message"]
+    # said as a picture (a camera, crossed) and one sentence; the reason goes to the log
+    assert r["notice"] == "no_camera" and r["message"] and "kivy:1" not in r["message"]
     assert "Traceback" not in proc.stderr
 
 

@@ -21,7 +21,7 @@ import pytest
 
 from app.cli import main
 from app.paths import REPO_ROOT
-from app.story import (ACCEPTED_RATES, MAX_NARRATION_SECONDS, MAX_STORY_NARRATION_SECONDS, Audio, Narration,
+from app.story import (ACCEPTED_RATES, MAX_IMPORT_SECONDS, MAX_NARRATION_SECONDS, MAX_STORY_NARRATION_SECONDS, Audio, Narration,
                        NarrationError, ProfileStore, StorageError, Story, StoryEditor, StoryError, decode_audio,
                        demo_story, encode_wav, import_narration, load_narration, read_audio, read_package,
                        store_narration, trim)
@@ -105,7 +105,7 @@ def _refusals(tmp_path: Path) -> dict[str, tuple[Path, str]]:
     case("too short", write_wav(tmp_path / "blip.wav", tone(0.05, 16000), 16000), "at least")
     case("wrong rate", write_wav(tmp_path / "rate.wav", tone(0.5, 12345), 12345), "12345 Hz")
     case("three channels", write_wav(tmp_path / "ch3.wav", tone(0.5, 16000, channels=3), 16000), "3 channels")
-    case("too long", write_wav(tmp_path / "long.wav", tone(MAX_NARRATION_SECONDS + 1, 8000), 8000), "at most")
+    case("too long", write_wav(tmp_path / "long.wav", tone(MAX_IMPORT_SECONDS + 1, 8000), 8000), "at most")
     good = write_wav(tmp_path / "good.wav", tone(1.0, 16000), 16000).read_bytes()
     (tmp_path / "cut.wav").write_bytes(good[: len(good) // 2])
     case("cut short", tmp_path / "cut.wav", "damaged or cut short")
@@ -114,10 +114,10 @@ def _refusals(tmp_path: Path) -> dict[str, tuple[Path, str]]:
     (tmp_path / "text.ogg").write_text("OggS? no, just text pretending " * 10)
     case("text as ogg", tmp_path / "text.ogg", "not a readable OGG")
     big = tmp_path / "huge.wav"
-    with open(big, "wb") as fh:  # sparse: 17 MB on paper, refused from its size alone
+    with open(big, "wb") as fh:  # sparse: 65 MB on paper, refused from its size alone
         fh.write(good[:44])
-        fh.truncate(17 * 1024 * 1024)
-    case("enormous", big, "at most 16 MB")
+        fh.truncate(65 * 1024 * 1024)
+    case("enormous", big, "at most 64 MB")
     # a header that claims an hour of audio: refused before any sample is read
     liar = bytearray(good)
     liar[40:44] = (3600 * 16000 * 2).to_bytes(4, "little")
@@ -136,18 +136,69 @@ def test_corrupt_empty_wrong_rate_and_enormous_audio_is_refused_naming_the_file(
         assert fragment in message, (name, message)
 
 
-def test_a_float_or_damaged_ogg_file_is_refused(tmp_path):
+@pytest.mark.parametrize("subtype,channels", [("FLOAT", 1), ("FLOAT", 2), ("DOUBLE", 1)])
+def test_a_float_wav_reads_like_its_integer_twin(tmp_path, subtype, channels):
+    """Audacity exports 32-bit float WAVs by default; Python's wave module refuses them
+    ("unknown format: 3"), so they are read through scipy."""
     sf = pytest.importorskip("soundfile")
+    ref = tone(0.5, 16000, channels=channels)
     path = tmp_path / "float.wav"
-    sf.write(str(path), tone(0.5, 16000).astype(np.float32) / 32768, 16000, subtype="FLOAT")
-    with pytest.raises(NarrationError, match="not a readable WAV"):
-        read_audio(path)
+    sf.write(str(path), ref.astype(np.float64) / 32767.0, 16000, subtype=subtype)
+    audio = read_audio(path)
+    assert audio.rate == 16000 and len(audio.samples) == len(ref)
+    expected = np.round(ref.astype(np.float64).mean(axis=1))
+    assert np.max(np.abs(audio.samples - expected)) <= 1
+
+
+def test_a_float_wav_in_the_extensible_header_reads(tmp_path):
+    """WAVE_FORMAT_EXTENSIBLE with the float sub-format (what many tools write for
+    more than two channels or high bit depths) is a float WAV too."""
+    ref = tone(0.3, 22050)[:, 0].astype(np.float32) / 32767.0
+    samples = ref.astype("<f4").tobytes()
+    guid = (3).to_bytes(2, "little") + bytes.fromhex("000000001000800000aa00389b71")
+    fmt = ((0xFFFE).to_bytes(2, "little") + (1).to_bytes(2, "little") + (22050).to_bytes(4, "little")
+           + (22050 * 4).to_bytes(4, "little") + (4).to_bytes(2, "little") + (32).to_bytes(2, "little")
+           + (22).to_bytes(2, "little") + (32).to_bytes(2, "little") + (4).to_bytes(4, "little") + guid)
+    assert len(fmt) == 40
+    body = (b"WAVE" + b"fmt " + len(fmt).to_bytes(4, "little") + fmt
+            + b"data" + len(samples).to_bytes(4, "little") + samples)
+    (tmp_path / "ext.wav").write_bytes(b"RIFF" + len(body).to_bytes(4, "little") + body)
+    audio = read_audio(tmp_path / "ext.wav")
+    assert len(audio.samples) == len(ref) and np.max(np.abs(audio.samples - np.round(ref * 32767))) <= 1
+
+
+def test_a_damaged_ogg_or_float_wav_is_refused_naming_the_file(tmp_path):
+    sf = pytest.importorskip("soundfile")
     ogg = tmp_path / "v.ogg"
     sf.write(str(ogg), tone(1.0, 16000), 16000, format="OGG", subtype="VORBIS")
     data = ogg.read_bytes()
     (tmp_path / "bad.ogg").write_bytes(data[:200] + bytes(len(data) - 200))
     with pytest.raises(NarrationError, match="bad.ogg"):
         read_audio(tmp_path / "bad.ogg")
+    sf.write(str(tmp_path / "f.wav"), tone(0.5, 16000).astype(np.float32) / 32768, 16000, subtype="FLOAT")
+    good = (tmp_path / "f.wav").read_bytes()
+    (tmp_path / "fcut.wav").write_bytes(good[:60])
+    with pytest.raises(NarrationError, match="fcut.wav") as info:
+        read_audio(tmp_path / "fcut.wav")
+    assert info.value.kind == "unreadable"
+
+
+def test_a_long_sound_is_imported_then_trimmed_before_it_is_kept(tmp_path):
+    """A sound longer than a scene's narration may be reads whole (up to
+    MAX_IMPORT_SECONDS), is refused as it is with the kind "too_long" (the picture says:
+    trim it), and is kept once trimmed."""
+    path = write_wav(tmp_path / "long.wav", tone(MAX_NARRATION_SECONDS + 30, 8000), 8000)
+    audio = read_audio(path)
+    assert audio.seconds == pytest.approx(MAX_NARRATION_SECONDS + 30)
+    store = ProfileStore(tmp_path / "p.db")
+    story = _story()
+    store.save_story(story)
+    with pytest.raises(NarrationError) as info:
+        import_narration(store, story, story.scenes[0].id, path)
+    assert info.value.kind == "too_long" and "trim" in str(info.value)
+    assert store.asset_names(story.id) == []
+    narration = import_narration(store, story, story.scenes[0].id, path, 10.0, 10.0 + MAX_NARRATION_SECONDS)
+    assert narration.seconds == pytest.approx(MAX_NARRATION_SECONDS)
 
 
 def test_refused_imports_store_nothing(tmp_path):

@@ -45,9 +45,12 @@ def test_record_import_trim_switch_off_and_play_in_step_by_touch(tmp_path, lang)
     assert r["leftover_recordings"] == []
     assert r["kept"]["seconds"] == pytest.approx(r["recorded_seconds"], abs=1e-3)
     assert r["kept_saved"] == r["kept"] and r["assets"] == [r["kept"]["asset"]]
-    # a wrong-rate file: refused naming it, nothing stored
+    # a wrong-rate file: refused with a picture and one sentence (spoken), never the
+    # exception's text or the file's path; nothing stored
     assert r["files"] == ["hello.wav", "wrong_rate.wav"]
-    assert str(folder / "wrong_rate.wav") in r["refused"] and "12345 Hz" in r["refused"]
+    assert r["refused_notice"] == "sound_broken" and r["refused"] == tr("notice_sound_broken", lang)
+    assert str(folder) not in r["refused"] and "12345" not in r["refused"]
+    assert r["spoken"][-1] == [r["refused"], lang]
     assert r["after_refused"] == r["kept"] and r["assets_after_refused"] == r["assets"]
     # imported and trimmed by a tap on the end slider's middle: about half of the 2 s
     assert r["import_seconds"] == pytest.approx(2.0)
@@ -57,7 +60,7 @@ def test_record_import_trim_switch_off_and_play_in_step_by_touch(tmp_path, lang)
     assert r["duration_after"] == pytest.approx(r["duration_before"])  # the demo scene is longer than 1.4 s
     # the teacher's switch hides the record button and says why
     assert r["teacher_label"] == f"{tr('recording_setting', lang)}: {tr('off', lang)}"
-    assert r["off_record_visible"] == 0 and r["off_reason"] == tr("recording_off", lang)
+    assert r["off_record_visible"] == 0 and r["off_reason"] == tr("notice_recording_off", lang)
     # Play: the voice starts at the scene's start and stops at its end, in step with the clock
     voice = r["voice_file"]
     calls = [tuple(c) for c in r["play_calls"]]

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from app.paths import MOTIONS_DIR
+from app.ui.clip_tiles import numbered_names
 from app.ui.strings import tr
 from retrieval.library import PoseSearch, group_folder, pose_features
 from retrieval.motion import CANONICAL_JOINTS
@@ -189,8 +190,10 @@ def test_groups_by_touch_are_the_library_groups_named_by_label(driven, library):
     groups = grouped.grouping.groups
     assert r["groups_title"] == tr("groups_title", lang)
     assert r["group_reps"] == [g.representative for g in groups]
-    for text, g in zip(r["group_texts"], groups):
-        name = tr(f"motion_{g.name}", lang) if g.name else tr("group_n", lang, n=g.number + 1)
+    names = numbered_names([tr(f"motion_{g.name}", lang) if g.name else tr("group_n", lang, n=g.number + 1)
+                            for g in groups])  # two groups of one class: "Kick 1", "Kick 2" (issue 29)
+    assert len(set(names)) == len(names)
+    for text, name, g in zip(r["group_texts"], names, groups):
         assert text == f"{name} ({len(g.members)})"
     assert r["group0_clips"] == [grouped.trials[i] for i in groups[0].members]
     assert r["group_pick"] == r["clip_after_group"]

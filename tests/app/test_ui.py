@@ -67,6 +67,9 @@ def test_sketch_marks_reorder_undo_motion_and_play_by_touch(tmp_path):
     assert r["cast_after_undo"] == r["cast_before_remove"]
     label_of = {"01_01": "walk", "03_01": "kick", "04_01": "kick", "05_01": "jump"}  # the test library
     assert r["similar"] and {label_of[t] for t in r["similar"]} == {r["similar_for"]}
+    # tiles say the class and a number, never the capture id (issue 29)
+    assert all(not any(t in text for t in label_of) for text in r["similar_texts"])
+    assert all(text.split()[0] == r["similar_for"].capitalize() for text in r["similar_texts"])
     assert r["screen_after_play"] == "play"
     assert r["play_time"] == pytest.approx(1.5)
     assert r["play_scene"] == r["story_scenes"][0]

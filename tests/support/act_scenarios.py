@@ -93,6 +93,7 @@ def tablet_act_steps(app):
     yield _until(lambda: drv.editor(app).act_view.state == "failed", "the missing camera to be reported", 30)
     yield lambda: drv.result.update(no_camera={"error": drv.editor(app).act_view.error,
                                                "status": drv.editor(app).act_view.status.text,
+                                               "notice": getattr(drv.editor(app).act_view, "notice", None),
                                                "start_disabled": drv.editor(app).act_view.start_button.disabled})
     yield drv.touching(lambda: drv.tap(drv.editor(app).act_view.back_button),
                        until=lambda: drv.editor(app).act_view._closing.is_set())

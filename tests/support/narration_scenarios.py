@@ -98,8 +98,9 @@ def narration_steps(app):
 
     def tile(name):
         return next(t for k, t in panel().file_tiles.items() if k.endswith("/" + name))
-    yield touching(lambda: tap(tile("wrong_rate.wav")), until=lambda: "12345" in panel().message)
-    yield lambda: result.update(refused=panel().message, after_refused=stored0().to_dict(),
+    yield touching(lambda: tap(tile("wrong_rate.wav")), until=lambda: panel().notice is not None)
+    yield lambda: result.update(refused=panel().message, refused_notice=panel().notice,
+                                spoken=list(getattr(app.speaker, "said", [])), after_refused=stored0().to_dict(),
                                 assets_after_refused=app.store.asset_names(DEMO_STORY_ID))
     yield touching(lambda: tap(tile("hello.wav")), until=lambda: panel().pending is not None
                    and panel().end_slider is not None)

@@ -95,6 +95,9 @@ SCENARIOS = {"touch_story": touch_story_steps, "editor": editor_steps, "language
 from narration_scenarios import SCENARIOS as NARRATION_SCENARIOS  # noqa: E402  (issue 14: voice, own file)
 
 SCENARIOS.update(NARRATION_SCENARIOS)
+from child_scenarios import SCENARIOS as CHILD_SCENARIOS  # noqa: E402  (issue 29: a child who cannot read, own file)
+
+SCENARIOS.update(CHILD_SCENARIOS)
 from tablet_scenarios import RENDERED as TABLET_RENDERED  # noqa: E402  (issue 13: the tablet profile, own file)
 from tablet_scenarios import SCENARIOS as TABLET_SCENARIOS  # noqa: E402
 
@@ -106,8 +109,21 @@ SCENARIOS.update(ACT_SCENARIOS)
 app_ref: list = []
 
 
+class RecordingSpeaker:
+    """Stands in for the device's speech (app.services.speech): records what was said."""
+
+    name = "test"
+
+    def __init__(self):
+        self.said: list[tuple[str, str]] = []
+
+    def say(self, text: str, lang: str) -> None:
+        self.said.append((text, lang))
+
+
 class DriverApp(StoryBeamApp):
     def on_start(self):
+        self.speaker = RecordingSpeaker()
         if SCENARIO == "teacher" and self.video_exporter is not None:
             # the real 3-D export (child process, camera view) at 2 frames per second: the
             # UI wiring is what this scenario checks; tests/test_app_integration.py checks the video
@@ -202,6 +218,7 @@ class DriverApp(StoryBeamApp):
 
 if __name__ == "__main__":
     lang = os.environ.get("STORYBEAM_TEST_LANG", "en")
+    lang = None if lang == "device" else lang  # "device": no language asked for, as on a first launch
     demo = SCENARIO in ("editor", "language", "play3d", "projector3d", "thumbs")
     if SCENARIO == "teacher":  # one saved story for the exports (made outside the UI)
         from app.story.demo_story import demo_story

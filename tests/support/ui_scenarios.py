@@ -126,7 +126,8 @@ def editor_steps(app):
     yield lambda: drv.result.update(cast_after_undo=len(app.editor.story.scene(app.current_scene_id).characters))
     yield lambda: drv.result.update(similar_for=editor(app).selected_character().motion.motion_class)
     yield lambda: editor(app).more_like_this()
-    yield lambda: drv.result.update(similar=[b.text.split()[-1] for b in editor(app).clip_view.children[0].children[1].children[0].children])
+    yield lambda: drv.result.update(similar=[b.trial for b in editor(app).clip_view.children[0].children[1].children[0].children],
+                                    similar_texts=[b.text for b in editor(app).clip_view.children[0].children[1].children[0].children])
     yield lambda: drv.shot("more_like_this")
     yield lambda: editor(app).clip_view.dismiss()
     yield lambda: drv.shot("editor_after")
