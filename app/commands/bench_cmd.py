@@ -379,12 +379,20 @@ classes, in place, facing the camera; the person also turned 30 degrees and befo
 cluttered background), rendered at 640x480 and 30 fps, tracked by ar.body on one core,
 searched by the frontal ActSearch. Reports detection rate, 1-NN class accuracy with the
 trial and with the subject left out, the true-joint ceiling, per-class recall,
-pose_ms_median and search_ms. Landmarks (never frames) are cached under --cache."""
+pose_ms_median and search_ms. Landmarks (never frames) are cached under --cache.
+
+With --videos DIR (a folder of clips with labels.csv: file,label) it runs real footage
+instead (lab/bench/act_videos.py): every clip through the product's flow (ar.body, then
+the frontal ActSearch over --data), per-class top-1 and top-k accuracy, a confusion-matrix
+PNG beside the JSON, the body-found rate per clip, pose and search medians, one core."""
+
+
+ACT_JSON_DEFAULT = "out/act_it_out_bench.json"
 
 
 def _add_act_it_out(sub: argparse._SubParsersAction) -> None:
     p = _parser(sub, "act-it-out", "Act it out: detection, class accuracy, ceiling, pose and search time",
-                ACT_IT_OUT_DOC, _run_act_it_out, json_default="out/act_it_out_bench.json")
+                ACT_IT_OUT_DOC, _run_act_it_out, json_default=ACT_JSON_DEFAULT)
     p.add_argument("--data", type=Path, default=None, help="labelled folder (default: the shared CMU set)")
     p.add_argument("--limit", type=_at_least(1), default=60, help="trials performed per variant (default 60)")
     p.add_argument("--extra-limit", type=_at_least(1), default=None,
@@ -395,20 +403,37 @@ def _add_act_it_out(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seconds", type=_fps, default=None, help="take length in seconds (default 3.5)")
     p.add_argument("--cache", type=Path, default=Path("out/act_it_out"), help="landmark cache folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--videos", type=Path, default=None,
+                   help="real footage instead: a folder of clips with labels.csv (file,label)")
+    p.add_argument("--top", type=_at_least(1), default=3, help="with --videos: top-k accuracy (default 3)")
 
 
 def _run_act_it_out(args: argparse.Namespace) -> int:
-    from lab.bench.act_it_out import format_table, run_act_it_out_bench  # deferred: pyrender, ar.body
-
     data = args.data or SHARED_CMU
     if not (Path(data) / "labels.csv").is_file():
         raise StoryBeamError(f"--data {data}: no labels.csv (the shared CMU set, or a labelled folder)")
+    if args.videos is not None:
+        return _run_act_videos(args, Path(data))
+    from lab.bench.act_it_out import format_table, run_act_it_out_bench  # deferred: pyrender, ar.body
+
     variants = [v.strip() for v in args.variants.split(",") if v.strip()]
     kw = {"take_seconds": args.seconds} if args.seconds else {}
     kw["extra_limit"] = args.extra_limit
     result = run_act_it_out_bench(Path(data), args.limit, args.seed, variants, args.cache,
                                   None if args.quiet else progress_bar("bench act-it-out", "take"), **kw)
     return _finish(args, result, format_table(result))
+
+
+def _run_act_videos(args: argparse.Namespace, data: Path) -> int:
+    """``bench act-it-out --videos DIR``: real clips through the flow (lab/bench/act_videos.py)."""
+    from lab.bench.act_videos import format_videos_table, run_act_videos_bench  # deferred: ar.body, matplotlib
+
+    if args.json_out == Path(ACT_JSON_DEFAULT):  # the synthetic bench's file is left alone
+        args.json_out = Path("out/act_it_out_videos.json")
+    plot = args.json_out.with_name(args.json_out.stem + "_confusion.png") if args.json_out else None
+    result = run_act_videos_bench(args.videos, data, args.cache, args.top,
+                                  None if args.quiet else progress_bar("bench act-it-out --videos", "clip"), plot)
+    return _finish(args, result, format_videos_table(result))
 
 
 #: Benchmark targets: name -> function adding its sub-parser (in `storybeam bench --help` order).

@@ -217,7 +217,8 @@ def _run_video(args, data: Path) -> int:
     from retrieval.library import ActSearch  # deferred: loads the search stack, only to search
 
     search = ActSearch.build(data)
-    unknown = [t for t in exclude if t not in set(search.index.trials)]
+    # a trial's name, not its windows' (10_01@0, 10_01@52, ...): leaving it out leaves all of them out
+    unknown = [t for t in exclude if t not in set(search.clip_names)]
     if unknown:
         raise StoryBeamError(f"--exclude: {', '.join(unknown)} not in the library {data}")
     flow = ActItOut(search)

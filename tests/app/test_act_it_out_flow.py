@@ -101,6 +101,30 @@ def test_search_by_video_reports_the_take_and_the_nearest_walks(walk_video, tmp_
     assert "--exclude: 99_99 not in the library" in capsys.readouterr().err
 
 
+def test_exclude_leaves_every_window_of_a_trial_out(walk_video, tmp_path):
+    """Issue 27: the act library indexes long clips as windows (``07_01@0``, ``07_01@52``,
+    ...); ``--exclude TRIAL`` names the trial and must leave all its windows out (it was
+    refused: "not in the library")."""
+    from app.paths import MOTIONS_DIR
+    from retrieval.library import ActSearch
+
+    search = ActSearch.build(MOTIONS_DIR)
+    windowed = [n for n in search.clip_names if search.names.count(n) > 1]
+    walks = [n for n in windowed if search.index.labels[search.names.index(n)] == "walk"]
+    assert walks, "the bundled library should have a walk long enough to be split into windows"
+    assert all("@" in search.index.trials[i] for i, n in enumerate(search.names) if n in windowed)
+    full = tmp_path / "full.json"
+    assert main(["search", "--video", str(walk_video), "-k", "40", "--json", str(full)]) == 0
+    ranked = [h["trial"] for h in json.loads(full.read_text())["results"]]
+    gone = [t for t in ranked if t in walks][:2]  # the two nearest windowed walks
+    out = tmp_path / "excluded.json"
+    assert main(["search", "--video", str(walk_video), "--exclude", ",".join(gone), "-k", "5",
+                 "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["exclude"] == gone
+    assert [h["trial"] for h in r["results"]] == [t for t in ranked if t not in gone][:5]
+
+
 def test_a_cut_off_body_is_judged_step_back(cut_video, tmp_path):
     out = tmp_path / "cut.json"
     assert main(["search", "--video", str(cut_video), "--json", str(out)]) == 0
