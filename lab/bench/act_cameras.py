@@ -31,7 +31,6 @@ and the image is made just tall enough, at the condition's focal length.
 """
 from __future__ import annotations
 
-import json
 import time
 from collections import defaultdict
 from dataclasses import asdict, dataclass, field
@@ -42,10 +41,17 @@ import numpy as np
 
 from lab.bench.act_it_out import choose_trials
 from retrieval.errors import StoryBeamError
-from retrieval.features import mean_heading
+from retrieval.features import leg_length, mean_heading
 from retrieval.library import ActSearch, LabelRow, read_labels
-from retrieval.motion import canonical_joint_map, load_motion, positions, resample
-from retrieval.motion.landmarks import LANDMARK_INDEX, N_LANDMARKS, UP_OFFSETS
+from retrieval.motion import (
+    LANDMARK_INDEX,
+    N_LANDMARKS,
+    UP_OFFSETS,
+    canonical_joint_map,
+    load_motion,
+    positions,
+    resample,
+)
 
 
 @dataclass(frozen=True)
@@ -187,11 +193,10 @@ def make_take(row: LabelRow, cond: Condition, rng: np.random.Generator | None = 
     clip = src.slice(start, start + n)
     jm = canonical_joint_map(clip.skeleton)
     pos = positions(clip)
-    from retrieval.features import leg_length  # deferred: only here
     leg = leg_length(clip.skeleton, jm)
     floor = float(np.percentile(pos[:, [jm[j] for j in ("left_ankle", "right_ankle", "left_toe", "right_toe")], 1]
                                 .min(axis=1), 2.0))
-    pos[..., 1] -= floor - 0.0
+    pos[..., 1] -= floor
     root = pos[:, jm["hips"]].copy()
     if cond.travel == "none":
         pos[..., [0, 2]] -= root[:, None, [0, 2]]
@@ -285,6 +290,7 @@ def run_act_cameras_bench(data: Path, limit: int = 60, seed: int = 2, conditions
 
 
 def format_table(result: dict) -> str:
+    """The printed summary: one row per condition, per-class recall and the top confusions."""
     classes = sorted({c for r in result["conditions"] for c in r["recall"]})
     lines = ["| condition | takes | accuracy | " + " | ".join(classes) + " | top confusions | search ms |",
              "|---|---|---|" + "---|" * len(classes) + "---|---|"]
@@ -294,8 +300,3 @@ def format_table(result: dict) -> str:
                      + " | ".join(f"{r['recall'].get(c, float('nan')):.2f}" for c in classes)
                      + f" | {conf} | {r['search_ms']:.1f} |")
     return "\n".join(lines)
-
-
-def main_json(result: dict, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result, indent=1))
