@@ -39,7 +39,6 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from lab.bench.act_it_out import choose_trials
 from retrieval.errors import StoryBeamError
 from retrieval.features import leg_length, mean_heading
 from retrieval.library import ActSearch, LabelRow, read_labels
@@ -274,6 +273,8 @@ def run_act_cameras_bench(data: Path, limit: int = 60, seed: int = 2, conditions
     if unknown or not conditions:
         raise StoryBeamError(f"unknown condition(s) {', '.join(unknown) or '(none given)'}; "
                              f"choose from {', '.join(CONDITIONS)}")
+    from lab.bench.act_it_out import choose_trials  # deferred: that module loads the renderer and the tracker
+
     rows = choose_trials(read_labels(data), limit, seed)
     search = search or ActSearch.build(data, fps=30.0)
     total, done = len(rows) * len(conditions), 0

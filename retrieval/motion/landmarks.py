@@ -7,16 +7,31 @@ speaks of the canonical body (:data:`~retrieval.motion.CANONICAL_JOINTS`) in met
 Y up, the way the library's clips are. :func:`landmarks_to_positions` converts:
 
 **Coordinates.** X and Y come from the *image* landmarks, scaled to metres: X =
-(u − u₀)·s, Y = −(v − v₀)·s with (u₀, v₀) the clip's median hip midpoint and ``s`` the
-clip's metres per pixel: the median over frames of the world torso length (shoulder
-midpoint to hip midpoint, metres) over its image length (pixels). So the root's height
-comes from the image — world landmarks are hip-centred and cannot show a jump's flight —
-and so does every other vertical and lateral coordinate, which a monocular estimator
-gets right far more often than depth. Z is the world landmarks' depth turned towards
-the camera (Z = −z): kept so that a clip can be turned to its mean heading, then
-dropped by the frontal features (:mod:`retrieval.features.frontal`). The axes are
-StoryBeam's: Y up, the camera on +Z, image-right = +X, so a performer facing the camera
-faces +Z with their left on +X, like a canonical body in its rest pose.
+(u − u₀)·s(t), Y = −(v − v₀)·s(t), with u₀ the clip's median hip column, v₀ the image's
+middle row (the principal point's; the median hip row when the image size is not given)
+and s(t) the metres per pixel *at frame t* (:func:`scale_track`): the ratio of the world
+torso length (shoulder midpoint to hip midpoint, metres) to its image length (pixels),
+followed by a straight line in time (Theil–Sen) — a body walking towards or away from
+the camera at a steady speed has a depth, hence a metres-per-pixel, linear in time, and
+a torso leaning towards the lens for a moment (a crouch) is an outlier the fit ignores.
+Measuring Y from the principal point's row at each frame's scale keeps the floor at one
+height as the body comes nearer (for a level camera exactly: a floor point's Y is minus
+the lens height); a camera pitched up or down still sees the floor under a travelling
+body drift linearly, so heights are finally taken from the take's *floor line*
+(:func:`floor_line`: the Theil–Sen line of the lowest foot joint over time, at its 2nd
+percentile — a jump's flight frames are outliers to it). Until issue 27 one
+metres-per-pixel (the median ratio) served the whole take and Y was measured from the
+hips' median row: a body walking from 7 m to 3 m then doubled in size and its floor
+slid down the image, and walks, runs and kicks towards the camera read as other classes
+(lab/bench/act_cameras.py: 0.667 → 0.900 on 60 held-out trials filmed travelling
+towards a camera; docs/notebook/act-it-out.md). So the root's height comes from the
+image — world landmarks are hip-centred and cannot show a jump's flight — and so does
+every other vertical and lateral coordinate, which a monocular estimator gets right far
+more often than depth. Z is the world landmarks' depth turned towards the camera (Z =
+−z): kept so that a clip can be turned to its mean heading, then dropped by the frontal
+features (:mod:`retrieval.features.frontal`). The axes are StoryBeam's: Y up from the
+floor, the camera on +Z, image-right = +X, so a performer facing the camera faces +Z
+with their left on +X, like a canonical body in its rest pose.
 
 **Joints** (BlazePose index in brackets): shoulders [11/12], elbows [13/14], wrists
 [15/16] as the hands, hips [23/24], knees [25/26], ankles [27/28], foot index [31/32]
