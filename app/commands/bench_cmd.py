@@ -464,6 +464,36 @@ def _run_act_videos(args: argparse.Namespace, data: Path) -> int:
     return _finish(args, result, format_videos_table(result))
 
 
+ACT_CAMERAS_DOC = """How real cameras change "Act it out"'s answer (lab/bench/act_cameras.py,
+docs/notebook/act-it-out.md): --limit held-out CMU trials' true joints turned into
+BlazePose-like landmarks and filmed by pinhole cameras of each condition (table height,
+pitch, wide lens, 24/60 fps, travel towards or across, short/long takes, cut at the
+knees), searched as a camera take is (1-NN, trial left out). No renderer, no estimator."""
+
+
+def _add_act_cameras(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "act-cameras", "Act it out under real-camera geometry: accuracy per condition",
+                ACT_CAMERAS_DOC, _run_act_cameras, json_default="out/act_cameras_bench.json")
+    p.add_argument("--data", type=Path, default=None, help="labelled folder (default: the shared CMU set)")
+    p.add_argument("--limit", type=_at_least(1), default=60, help="trials per condition (default 60)")
+    p.add_argument("--seed", type=int, default=2, help="which trials are drawn (default 2)")
+    p.add_argument("--conditions", default=None, help="comma-separated conditions (default: all)")
+    p.add_argument("--noise-px", type=float, default=0.0, help="Gaussian pixel noise on the image landmarks")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _run_act_cameras(args: argparse.Namespace) -> int:
+    from lab.bench.act_cameras import CONDITIONS, format_table, run_act_cameras_bench  # deferred: the library
+
+    data = args.data or SHARED_CMU
+    if not (Path(data) / "labels.csv").is_file():
+        raise StoryBeamError(f"--data {data}: no labels.csv (the shared CMU set, or a labelled folder)")
+    conds = [c.strip() for c in args.conditions.split(",") if c.strip()] if args.conditions else list(CONDITIONS)
+    result = run_act_cameras_bench(Path(data), args.limit, args.seed, conds, args.noise_px,
+                                   progress=None if args.quiet else progress_bar("bench act-cameras", "take"))
+    return _finish(args, result, format_table(result))
+
+
 #: Benchmark targets: name -> function adding its sub-parser (in `storybeam bench --help` order).
 TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
     "retrieval": _add_retrieval,
@@ -475,6 +505,7 @@ TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
     "fast-search-profile": _add_fast_search_profile,
     "pose-search": _add_pose_search,
     "act-it-out": _add_act_it_out,
+    "act-cameras": _add_act_cameras,
     "storybeam-scale": _add_storybeam_scale,
     "surface": _add_surface,
 }

@@ -35,7 +35,14 @@ from retrieval.motion.kinematics import (
     rest_positions,
     world_from_native,
 )
-from retrieval.motion.landmarks import LANDMARK_INDEX, LANDMARK_NAMES, LandmarkError, landmarks_to_positions
+from retrieval.motion.landmarks import (
+    LANDMARK_INDEX,
+    LANDMARK_NAMES,
+    N_LANDMARKS,
+    UP_OFFSETS,
+    LandmarkError,
+    landmarks_to_positions,
+)
 from retrieval.motion.model import Joint, Motion, Skeleton
 from retrieval.motion.rotations import (
     axis_rotation,
@@ -80,4 +87,6 @@ __all__ = [
     "LANDMARK_INDEX",
     "LandmarkError",
     "landmarks_to_positions",
+    "N_LANDMARKS",
+    "UP_OFFSETS",
 ]

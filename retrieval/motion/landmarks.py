@@ -7,16 +7,31 @@ speaks of the canonical body (:data:`~retrieval.motion.CANONICAL_JOINTS`) in met
 Y up, the way the library's clips are. :func:`landmarks_to_positions` converts:
 
 **Coordinates.** X and Y come from the *image* landmarks, scaled to metres: X =
-(u − u₀)·s, Y = −(v − v₀)·s with (u₀, v₀) the clip's median hip midpoint and ``s`` the
-clip's metres per pixel: the median over frames of the world torso length (shoulder
-midpoint to hip midpoint, metres) over its image length (pixels). So the root's height
-comes from the image — world landmarks are hip-centred and cannot show a jump's flight —
-and so does every other vertical and lateral coordinate, which a monocular estimator
-gets right far more often than depth. Z is the world landmarks' depth turned towards
-the camera (Z = −z): kept so that a clip can be turned to its mean heading, then
-dropped by the frontal features (:mod:`retrieval.features.frontal`). The axes are
-StoryBeam's: Y up, the camera on +Z, image-right = +X, so a performer facing the camera
-faces +Z with their left on +X, like a canonical body in its rest pose.
+(u − u₀)·s(t), Y = −(v − v₀)·s(t), with u₀ the clip's median hip column, v₀ the image's
+middle row (the principal point's; the median hip row when the image size is not given)
+and s(t) the metres per pixel *at frame t* (:func:`scale_track`): the ratio of the world
+torso length (shoulder midpoint to hip midpoint, metres) to its image length (pixels),
+followed by a straight line in time (Theil–Sen) — a body walking towards or away from
+the camera at a steady speed has a depth, hence a metres-per-pixel, linear in time, and
+a torso leaning towards the lens for a moment (a crouch) is an outlier the fit ignores.
+Measuring Y from the principal point's row at each frame's scale keeps the floor at one
+height as the body comes nearer (for a level camera exactly: a floor point's Y is minus
+the lens height); a camera pitched up or down still sees the floor under a travelling
+body drift linearly, so heights are finally taken from the take's *floor line*
+(:func:`floor_line`: the Theil–Sen line of the lowest foot joint over time, at its 2nd
+percentile — a jump's flight frames are outliers to it). Until issue 27 one
+metres-per-pixel (the median ratio) served the whole take and Y was measured from the
+hips' median row: a body walking from 7 m to 3 m then doubled in size and its floor
+slid down the image, and walks, runs and kicks towards the camera read as other classes
+(lab/bench/act_cameras.py: 0.667 → 0.900 on 60 held-out trials filmed travelling
+towards a camera; docs/notebook/act-it-out.md). So the root's height comes from the
+image — world landmarks are hip-centred and cannot show a jump's flight — and so does
+every other vertical and lateral coordinate, which a monocular estimator gets right far
+more often than depth. Z is the world landmarks' depth turned towards the camera (Z =
+−z): kept so that a clip can be turned to its mean heading, then dropped by the frontal
+features (:mod:`retrieval.features.frontal`). The axes are StoryBeam's: Y up from the
+floor, the camera on +Z, image-right = +X, so a performer facing the camera faces +Z
+with their left on +X, like a canonical body in its rest pose.
 
 **Joints** (BlazePose index in brackets): shoulders [11/12], elbows [13/14], wrists
 [15/16] as the hands, hips [23/24], knees [25/26], ankles [27/28], foot index [31/32]
@@ -139,6 +154,8 @@ LR_PAIRS: tuple[tuple[int, int], ...] = tuple(
 #: A frame whose image across width (|shoulder dx| + |hip dx|, pixels) is under this
 #: fraction of the take's median is a side swap caught half-way: treated as missed.
 COLLAPSE_FRACTION = 0.3
+#: The canonical foot joints whose lowest, per frame, stands on the floor.
+FOOT_JOINTS: tuple[str, ...] = ("left_ankle", "left_toe", "right_ankle", "right_toe")
 
 
 class LandmarkError(StoryBeamError):
@@ -229,24 +246,79 @@ def _leg(joints: dict[str, np.ndarray]) -> float:
     return size
 
 
+def _robust_line(t: np.ndarray, y: np.ndarray, max_points: int = 120) -> tuple[float, float]:
+    """Theil–Sen slope and median intercept of y over t (at most ``max_points`` evenly
+    spaced samples enter the slope): robust to under 29 % of outlying frames."""
+    if len(t) < 3 or np.ptp(t) <= 0:
+        return 0.0, float(np.median(y)) if len(y) else 0.0
+    pick = np.unique(np.linspace(0, len(t) - 1, min(len(t), max_points)).round().astype(int))
+    tt, yy = t[pick], y[pick]
+    i, j = np.triu_indices(len(tt), 1)
+    dt = tt[j] - tt[i]
+    keep = dt > 0
+    slope = float(np.median((yy[j] - yy[i])[keep] / dt[keep])) if keep.any() else 0.0
+    return slope, float(np.median(y - slope * t))
+
+
+def scale_track(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(T,) metres per pixel at the body, per frame: the ratio of the world torso length
+    (shoulder midpoint → hip midpoint) to its image length, followed by a straight line
+    in time (:func:`_robust_line`). A body walking or running towards or away from the
+    camera at a steady speed has a depth, hence a metres-per-pixel, linear in time; a
+    body in place has a constant one. Frames where the torso leans towards the camera
+    (a crouch, a bow) foreshorten it and read high for a moment: the robust fit ignores
+    them. Never under a fifth of the median ratio."""
+    world, image_xy, ok = _check(world, image_xy, valid)
+
+    def torso(a: np.ndarray) -> np.ndarray:
+        return np.linalg.norm((a[:, L_SHOULDER] + a[:, R_SHOULDER]) / 2 - (a[:, L_HIP] + a[:, R_HIP]) / 2, axis=1)
+
+    tw, ti = torso(world), torso(image_xy)
+    good = ok & (ti > 1.0)
+    if not good.any():
+        raise LandmarkError("the torso is under a pixel long in every frame: no image scale")
+    t = np.arange(len(ok), dtype=np.float64)
+    ratio = tw[good] / ti[good]
+    slope, icpt = _robust_line(t[good], ratio)
+    return np.maximum(icpt + slope * t, 0.2 * float(np.median(ratio)))
+
+
+def floor_line(foot_y: np.ndarray, percentile: float = 2.0) -> np.ndarray:
+    """(T,) floor height per frame under (T,) lowest-foot heights: a straight line in
+    time whose slope is the Theil–Sen slope of the lowest foot (robust to a jump's flight
+    frames) and whose level is ``percentile`` of the residuals (the features' own floor
+    rule, :data:`retrieval.features.relational.FLOOR_PERCENTILE`). A camera pitched up or
+    down sees the floor under a body that travels in depth move up or down the image in
+    proportion to the depth, which is linear in time for a steady walk; a body in place
+    gets a level floor."""
+    foot_y = np.asarray(foot_y, dtype=np.float64)
+    t = np.arange(len(foot_y), dtype=np.float64)
+    slope, _ = _robust_line(t, foot_y)
+    return slope * t + float(np.percentile(foot_y - slope * t, percentile))
+
+
 def landmarks_to_positions(world: np.ndarray, image_xy: np.ndarray, valid: np.ndarray,
                            image_size: tuple[int, int] | None = None,
                            fps: float | None = None) -> tuple[np.ndarray, dict[str, int], float]:
-    """(T, 18, 3) canonical joint positions (metres, Y up, the camera on +Z), the joint
-    map (canonical name -> column) and the leg length (metres) of a take, from BlazePose
-    world landmarks (T, 33, 3), image landmarks (T, 33, 2, pixels) and the per-frame
-    ``valid`` flags (see the module docstring for the method; left and right are made
-    consistent first, :func:`consistent_sides`). ``image_size`` (w, h) and
-    ``fps`` are checked when given (the conversion itself does not depend on them)."""
+    """(T, 18, 3) canonical joint positions (metres, Y up from the floor, the camera on
+    +Z), the joint map (canonical name -> column) and the leg length (metres) of a take,
+    from BlazePose world landmarks (T, 33, 3), image landmarks (T, 33, 2, pixels) and
+    the per-frame ``valid`` flags (see the module docstring for the method; left and
+    right are made consistent first, :func:`consistent_sides`). Pixels become metres at
+    each frame's own scale (:func:`scale_track`), heights are measured from the image's
+    middle row when ``image_size`` (w, h) is given (else from the hips' median row) and
+    then from the take's floor line (:func:`floor_line`). ``fps`` is checked when given."""
     world, image_xy, ok = _check(world, image_xy, valid)
     if image_size is not None and not (len(image_size) == 2 and min(image_size) > 0):
         raise LandmarkError(f"image size must be (width, height) in pixels, got {image_size}")
     if fps is not None and not fps > 0:
         raise LandmarkError(f"fps must be positive, got {fps}")
     world, image_xy, ok = consistent_sides(world, image_xy, ok)
-    s = metres_per_pixel(world, image_xy, ok)
+    s = scale_track(world, image_xy, ok)[:, None]
     mid_px = (image_xy[ok, L_HIP] + image_xy[ok, R_HIP]) / 2
     u0, v0 = np.median(mid_px, axis=0)
+    if image_size is not None:  # the principal point's row: a level camera's floor stays put as depth changes
+        v0 = (image_size[1] - 1) / 2
     lm = np.empty(world.shape)
     lm[..., 0] = (image_xy[..., 0] - u0) * s
     lm[..., 1] = -(image_xy[..., 1] - v0) * s
@@ -266,6 +338,8 @@ def landmarks_to_positions(world: np.ndarray, image_xy: np.ndarray, valid: np.nd
     raw_leg = _leg(joints)
     joints = {n: p + UP_OFFSETS.get(n, 0.0) * raw_leg * up for n, p in joints.items()}
     joints["head"] = joints["neck"] + HEAD_ABOVE_NECK * (joints["neck"] - joints["hips"])
+    floor = floor_line(np.min([joints[n][:, 1] for n in FOOT_JOINTS], axis=0))
+    joints = {n: p - np.stack([np.zeros_like(floor), floor, np.zeros_like(floor)], axis=1) for n, p in joints.items()}
     leg = _leg(joints)
     names = list(CANONICAL_JOINTS)
     pos = np.stack([joints[n] for n in names], axis=1)
@@ -273,4 +347,5 @@ def landmarks_to_positions(world: np.ndarray, image_xy: np.ndarray, valid: np.nd
 
 
 __all__ = ["LANDMARK_NAMES", "LANDMARK_INDEX", "N_LANDMARKS", "DIRECT", "UP_OFFSETS", "HEAD_ABOVE_NECK", "LR_PAIRS", "COLLAPSE_FRACTION", "LandmarkError",
-           "consistent_sides", "fill_gaps", "metres_per_pixel", "landmarks_to_positions"]
+           "FOOT_JOINTS",
+           "consistent_sides", "fill_gaps", "floor_line", "metres_per_pixel", "scale_track", "landmarks_to_positions"]

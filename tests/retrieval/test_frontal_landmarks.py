@@ -104,7 +104,10 @@ def test_documented_offsets(body):
     # below the ears (Acclaim's head joint is the top of the neck)
     trunk = out[:, out_jm["neck"]] - out[:, out_jm["hips"]]
     np.testing.assert_allclose(out[:, out_jm["head"]] - out[:, out_jm["neck"]], HEAD_ABOVE_NECK * trunk, atol=1e-12)
-    head_minus_ears_y = out[:, out_jm["head"], 1] - (-(ears_px[:, 1] - np.median(mid_px[:, 1])) * s)
+    # heights are measured from the take's floor line: find that datum from a joint with no offset (a knee)
+    knee_px = image[:, DIRECT["left_knee"], 1]
+    datum = out[:, out_jm["left_knee"], 1] - (-(knee_px - np.median(mid_px[:, 1])) * s)
+    head_minus_ears_y = out[:, out_jm["head"], 1] - datum - (-(ears_px[:, 1] - np.median(mid_px[:, 1])) * s)
     assert "head" not in UP_OFFSETS and np.all(head_minus_ears_y < 0)
     assert np.all(trunk[:, 1] > 0)
     # the root above the (corrected) hip joints by hips − hip offset
