@@ -75,8 +75,9 @@ FITTS_A, FITTS_B = 0.20, 0.15
 TYPO_P = 0.01
 #: Kanji numerals read per second by a grown-up (Japanese: the number as characters).
 KANJI_PER_S = 4.0
-#: The pad's key pitch over its key width (the PIN screen: 3 keys of a 330 dp grid, 10 dp apart).
-KEY_PITCH_OVER_WIDTH = 110.0 / 100.0
+#: The pad's key pitch over its key width (the PIN screen: 3 keys across a 330 dp grid, 10 dp
+#: apart: 103.3 dp keys, 113.3 dp apart; tests/app/test_gate_paths.py measures it on screen).
+KEY_PITCH_OVER_WIDTH = (310.0 / 3 + 10.0) / (310.0 / 3)
 PAD = ("123", "456", "789", "c0k")  # c: clear, k: OK
 
 

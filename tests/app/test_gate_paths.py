@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from app.story.storage import ProfileStore
+from lab.stress.gate import KEY_PITCH_OVER_WIDTH, PAD
 from tests.app.test_ui import DRIVER, _env
 
 
@@ -40,6 +41,15 @@ def test_every_path_into_teacher_mode_asks_for_the_pin(tmp_path):
     assert r["after_leaving"] == locked  # any other screen locks it
     assert r["after_pause"][:2] == ["pin", False]  # the app sent to the background and back
     assert r["after_home_button"] == locked
+    # the pad the grown-up model of `storybeam stress gate` taps on: its grid and key pitch
+    pad = r["pad"]
+    for row, keys in enumerate(PAD):
+        for col, key in enumerate(keys):
+            name = {"c": "clear", "k": "ok"}.get(key, key)
+            x, y, w, h = pad[name]
+            assert x == pytest.approx(pad["1"][0] + col * (pad["2"][0] - pad["1"][0]), abs=2)
+            assert y == pytest.approx(pad["1"][1] - row * (pad["1"][1] - pad["4"][1]), abs=2)
+    assert (pad["2"][0] - pad["1"][0]) / pad["1"][2] == pytest.approx(KEY_PITCH_OVER_WIDTH, rel=0.03)
 
 
 @pytest.mark.slow  # starts the app in a child process, twice

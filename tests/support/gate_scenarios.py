@@ -76,6 +76,8 @@ def paths_steps(app):
     projector = lambda: app.sm.get_screen("projector")  # noqa: E731
     yield touching(lambda: tap(_back_button(projector())), until=lambda: app.sm.current != "projector")
     yield lambda: r.update(present_back=_where(app), present_back_mode=app.sm.get_screen("pin").mode)
+    yield lambda: r.update(pad={k: [*b.to_window(*b.center), b.width, b.height]
+                                for k, b in app.sm.get_screen("pin").keys.items()})  # the grown-up model's pad
     yield from type_on_pad(app, PIN)
     yield lambda: r.update(after_pin=_where(app))
     yield touching(lambda: tap(teacher().calibration_button), until=lambda: app.sm.current == "calibration")
