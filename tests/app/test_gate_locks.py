@@ -185,3 +185,23 @@ def test_without_a_good_copy_nothing_is_moved(tmp_path):
     with pytest.raises(StorageError, match="no good copy of the profile to put back"):
         restore_backup(db)
     assert db.read_bytes() == b"not a database at all" and sorted(p.name for p in tmp_path.iterdir()) == ["p.db"]
+
+
+def test_a_child_cannot_lock_the_teacher_out(tmp_path):
+    """Wrong PINs and wrong recovery codes are locked apart, and each lock ends: a child at
+    the pad can delay the teacher by at most the lock in force, never for good."""
+    tablet = Tablet()
+    with _open(tmp_path / "p.db", tablet) as store:
+        code = store.set_pin("2468")
+        for _ in range(60):  # a child at "Forgot PIN?" all morning
+            tablet.mono += store.recovery_wait()
+            store.try_recovery_code("0" * 12)
+        assert store.pin_wait() == 0 and store.try_pin("2468").ok  # the PIN is untouched
+        for _ in range(60):  # and at the PIN pad
+            tablet.mono += store.pin_wait()
+            store.try_pin("0000")
+        assert 0 < store.pin_wait() <= 900
+        tablet.mono += 900
+        assert store.try_pin("2468").ok  # at most 15 minutes later
+        tablet.mono += 900
+        assert store.reset_pin(code, "1357") and store.verify_pin("1357")
