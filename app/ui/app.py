@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import os
+import time
 from pathlib import Path
 from typing import Callable
 
@@ -61,6 +62,8 @@ def register_fonts() -> None:
 
 #: The screens of teacher mode: shown only while the teacher is unlocked (the PIN typed).
 TEACHER_SCREENS = ("teacher", "calibration")
+#: Teacher mode left untouched this long (seconds) locks and goes home (a teacher called away).
+TEACHER_IDLE_S = 600.0
 #: The settings that make the teacher's PIN (carried into a rescue profile from the good copy).
 PIN_SETTINGS = ("teacher_pin", "teacher_recovery")
 
@@ -74,7 +77,13 @@ class GatedScreenManager(ScreenManager):
 
     def __init__(self, unlocked: Callable[[], bool], lock: Callable[[], None], **kwargs):
         self._unlocked, self._lock = unlocked, lock
+        #: when the screen was last touched (time.monotonic): teacher mode left alone locks
+        self.last_touch = time.monotonic()
         super().__init__(**kwargs)
+
+    def on_touch_down(self, touch):
+        self.last_touch = time.monotonic()
+        return super().on_touch_down(touch)
 
     def on_current(self, instance, value):
         if value in TEACHER_SCREENS and not self._unlocked():
@@ -225,6 +234,7 @@ class StoryBeamApp(App):
             self.sm.current = "home"
         if hasattr(self.sm.current_screen, "refresh"):  # the first screen gets no on_pre_enter
             self.sm.current_screen.refresh()
+        Clock.schedule_interval(self._check_idle, 5.0)
         if self.damaged_profile is not None:  # say what happened before anything else
             self.sm.current = "damaged"
             self.sm.current_screen.refresh()
@@ -262,6 +272,12 @@ class StoryBeamApp(App):
 
     def go_home(self) -> None:
         self.go("home")
+
+    def _check_idle(self, _dt=None) -> None:
+        """Teacher mode untouched for :data:`TEACHER_IDLE_S`: lock it and go home."""
+        if self.sm.current in TEACHER_SCREENS and time.monotonic() - self.sm.last_touch > TEACHER_IDLE_S:
+            self.lock_teacher()
+            self.go_home()
 
     def lock_teacher(self) -> None:
         """Leave teacher mode: the PIN is asked again before the next teacher screen."""

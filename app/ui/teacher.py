@@ -45,9 +45,10 @@ _STEP_TEXT = {
 
 #: Digits the pad takes in each mode.
 _MAX_DIGITS = {"gate": 6, "new1": 8, "new2": 8, "enter": 8, "recover": RECOVERY_CODE_DIGITS}
-#: A PIN being chosen (after the grown-up check or a recovery code) is abandoned after this
-#: many seconds without a key: a grown-up who walks away mid-way leaves nothing a child can
-#: finish (the check, or the recovery code, is asked again).
+#: A PIN being chosen (after the grown-up check or a recovery code), or a recovery code
+#: shown and not yet confirmed, is abandoned after this many seconds without a key: a
+#: grown-up who walks away mid-way leaves nothing a child can finish (the check, the
+#: recovery code or the PIN is asked again; an unconfirmed code is replaced).
 SETUP_IDLE_S = 120.0
 
 
@@ -99,7 +100,10 @@ class PinScreen(Screen):
     def _tick(self, _dt) -> None:
         """Count a running lock down on screen; start over when a PIN being chosen was left."""
         mode = getattr(self, "mode", None)
-        if mode in ("new1", "new2") and time.monotonic() - self.last_key_at > SETUP_IDLE_S:
+        if mode in ("new1", "new2", "code") and time.monotonic() - self.last_key_at > SETUP_IDLE_S:
+            if mode == "code":  # never confirmed as written down: the next right PIN shows a new one
+                App.get_running_app().store.forget_recovery_code()
+                self.shown_code = ""
             self._start_over()
             self.refresh()
             return
@@ -191,6 +195,7 @@ class PinScreen(Screen):
         return "●" * len(self.entered)
 
     def _switch(self, mode: str, note: str = "") -> None:
+        self.last_key_at = time.monotonic()
         self.mode, self.entered, self.note = mode, "", note
         self.refresh()
 

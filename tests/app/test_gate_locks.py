@@ -205,3 +205,13 @@ def test_a_child_cannot_lock_the_teacher_out(tmp_path):
         assert store.try_pin("2468").ok  # at most 15 minutes later
         tablet.mono += 900
         assert store.reset_pin(code, "1357") and store.verify_pin("1357")
+
+
+def test_an_unconfirmed_recovery_code_is_dropped_and_the_pin_kept(tmp_path):
+    with _open(tmp_path / "p.db", Tablet()) as store:
+        code = store.set_pin("2468")
+        store.forget_recovery_code()
+        assert not store.has_recovery_code() and store.verify_pin("2468")
+        with pytest.raises(StorageError, match="no recovery code was set"):
+            store.try_recovery_code(code)
+        assert store.new_recovery_code() != code and store.has_recovery_code()

@@ -41,6 +41,11 @@ def test_every_path_into_teacher_mode_asks_for_the_pin(tmp_path):
     assert r["after_leaving"] == locked  # any other screen locks it
     assert r["after_pause"][:2] == ["pin", False]  # the app sent to the background and back
     assert r["after_home_button"] == locked
+    assert r["after_idle"] == ["home", False, 0]  # 10 minutes untouched: locked, home
+    assert r["code_shown"] == ["code", 12]
+    where, mode, has_code, shown = r["code_left"]  # 2 minutes untouched on the recovery code
+    assert where == locked and mode == "enter" and not has_code and shown == ""
+    assert r["code_again"] == ["code", 12]  # the PIN first, then a new code
     # the pad the grown-up model of `storybeam stress gate` taps on: its grid and key pitch
     pad = r["pad"]
     for row, keys in enumerate(PAD):

@@ -94,6 +94,20 @@ def paths_steps(app):
                    until=lambda: app.sm.current == "home")
     yield lambda: app.go("teacher")
     yield lambda: r.update(after_home_button=_where(app))
+    yield from _unlock(app)  # teacher mode left alone for 10 minutes locks and goes home
+    yield lambda: setattr(app.sm, "last_touch", app.sm.last_touch - 601)
+    yield lambda: app._check_idle()
+    yield lambda: r.update(after_idle=_where(app))
+    # a recovery code shown and left on screen: dropped, and a new one shown after the PIN
+    pin = lambda: app.sm.get_screen("pin")  # noqa: E731
+    yield lambda: app.store.forget_recovery_code()
+    yield from _unlock(app)
+    yield lambda: r.update(code_shown=[pin().mode, len(pin().shown_code)])
+    yield lambda: setattr(pin(), "last_key_at", pin().last_key_at - 121)
+    yield lambda: pin()._tick(0)
+    yield lambda: r.update(code_left=[_where(app), pin().mode, app.store.has_recovery_code(), pin().display.text])
+    yield from type_on_pad(app, PIN)
+    yield lambda: r.update(code_again=[pin().mode, len(pin().shown_code)])
     yield drv.finish
 
 

@@ -124,6 +124,7 @@ class ProfileStore:
     has_pin = forward("_gate", TeacherGate.has_pin)
     has_recovery_code = forward("_gate", TeacherGate.has_recovery_code)
     new_recovery_code = forward("_gate", TeacherGate.new_recovery_code)
+    forget_recovery_code = forward("_gate", TeacherGate.forget_recovery_code)
 
     def set_pin(self, pin: str) -> str:
         """:meth:`TeacherGate.set_pin <app.story.storage.teacher.TeacherGate.set_pin>`, then a

@@ -238,6 +238,13 @@ class TeacherGate:
         self._settings.set("teacher_recovery", self._hash_secret(code))
         return code
 
+    def forget_recovery_code(self) -> None:
+        """Drop the recovery code of the PIN in place (a code shown but never confirmed as
+        written down: the screen was left alone). The next right PIN makes and shows a new
+        one (:meth:`new_recovery_code`), so no code stays valid that no grown-up kept."""
+        with self._db.transaction() as conn:
+            conn.execute("DELETE FROM settings WHERE key = 'teacher_recovery'")
+
     def set_pin(self, pin: str) -> str:
         """Set the teacher PIN (4-8 digits) and return a new recovery code
         (:data:`RECOVERY_CODE_DIGITS` digits) to show the teacher once; only salted PBKDF2
