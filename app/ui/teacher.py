@@ -29,7 +29,6 @@ from app.story import RECOVERY_CODE_DIGITS, GrownUpQuestion, StorageError, valid
 from app.ui.import_picker import ImportPicker
 from app.ui.narration import RECORDING_SETTING, recording_allowed
 from app.ui.number_words import in_words
-from app.ui.strings import tr
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
 

@@ -10,6 +10,7 @@ import time
 import pytest
 
 from app.story import storage
+from app.story.demo_story import demo_story
 from app.story.storage import (
     GROWNUP_MAX,
     GROWNUP_MIN,
@@ -153,7 +154,6 @@ def test_the_last_good_copy_is_rotated_and_carries_the_pin(tmp_path):
         store.set_pin("2468")
         info = read_backup(db)
         assert info.has_pin and info.stories == 0  # a PIN change is copied at once
-        from app.story.demo_story import demo_story
         store.save_story(demo_story())
     assert read_backup(db).stories == 1  # and everything on closing
     assert set(backup_settings(db, ("teacher_pin", "teacher_recovery"))) == {"teacher_pin", "teacher_recovery"}
@@ -162,7 +162,6 @@ def test_the_last_good_copy_is_rotated_and_carries_the_pin(tmp_path):
 
 
 def test_restoring_keeps_the_damaged_file_and_brings_back_stories_and_pin(tmp_path):
-    from app.story.demo_story import demo_story
     db = tmp_path / "p.db"
     with ProfileStore(db) as store:
         store.save_story(demo_story())
