@@ -4,7 +4,10 @@ on request coverage-guided fuzzing with atheris (``--only atheris``; ``pip insta
 ``storybeam stress power-loss --json OUT`` runs the power-loss campaign alone (the
 product's recorded file-system calls replayed onto simulated post-crash disks; needs
 strace) and writes its own JSON (``crash_states``, ``acked_lost``, ``corrupt_accepted``,
-``open_failures``, ``integrity_failures``, ``control``).
+``open_failures``, ``integrity_failures``, ``control``). ``storybeam stress gate --json OUT``
+runs scripted children against the real grown-up check, a simulated school day each, and
+simulated grown-ups (:mod:`lab.stress.gate`): ``child_attempts``, ``child_passes``,
+``lock_violations``, ``grownup_seconds_median``.
 
 The short versions of the same harnesses run in CI (tests/robust/test_*.py); this command
 runs them for as long as asked and writes one JSON summary with the headline figures
@@ -37,9 +40,13 @@ OPTIONAL_HARNESSES = ("atheris", "power-loss")
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("stress", help="robustness campaign (fuzzing, crash-safety, tracking loss, monkey)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("campaign", nargs="?", choices=("power-loss",), default=None,
+    p.add_argument("campaign", nargs="?", choices=("power-loss", "gate"), default=None,
                    help="run one campaign alone and write its own JSON: power-loss (the product's recorded "
-                        "file-system calls replayed onto simulated post-crash disks; docs/notebook/reliability.md)")
+                        "file-system calls replayed onto simulated post-crash disks; docs/notebook/reliability.md), "
+                        "gate (scripted children against the teacher gate's grown-up check, a school day each)")
+    p.add_argument("--children", type=int, default=60,
+                   help="gate: children per strategy, one simulated school day each (default 60: >= 10 000 answers)")
+    p.add_argument("--grownups", type=int, default=400, help="gate: simulated grown-ups per language (default 400)")
     p.add_argument("--cuts", type=int, default=150,
                    help="power-loss: cut points per recorded workload, 7 crash states each (default 150)")
     p.add_argument("--workloads", type=int, default=2, help="power-loss: recorded workloads (default 2)")
@@ -84,6 +91,8 @@ def run(args: argparse.Namespace) -> int:
     or other failure."""
     if args.campaign == "power-loss":
         return _power_loss_command(args)
+    if args.campaign == "gate":
+        return _gate_command(args)
     names = selected(args.only)
     work = args.work_dir or Path(tempfile.mkdtemp(prefix="storybeam-stress-"))
     work.mkdir(parents=True, exist_ok=True)
@@ -177,6 +186,26 @@ def _power_loss_command(args: argparse.Namespace) -> int:
     integrity check, or the control lost nothing (the harness would then prove nothing)."""
     work = args.work_dir or Path(tempfile.mkdtemp(prefix="storybeam-power-loss-"))
     out = _run_power_loss(args, work)
+    text = json.dumps(out, indent=1)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(text + "\n")
+    print(text)
+    return 1 if out["failures"] else 0
+
+
+def _gate_command(args: argparse.Namespace) -> int:
+    """``storybeam stress gate``: print and write the campaign's JSON; exit 1 when a child
+    passed, a lock was cut short, or the grown-ups' median is 30 s or more."""
+    from lab.stress.gate import STRATEGIES, run_gate_campaign  # deferred: the stress layer only when run
+
+    if args.children < 1 or args.grownups < 1:
+        raise StoryBeamError("--children and --grownups must be at least 1")
+    work = args.work_dir or Path(tempfile.mkdtemp(prefix="storybeam-gate-"))
+    with tqdm(total=args.children * len(STRATEGIES) + 4, desc="gate: child-days, grown-up runs", unit="run",
+              file=sys.stderr) as bar:
+        out = run_gate_campaign(work, children=args.children, grownups=args.grownups, seed=args.seed,
+                                progress=bar.update)
     text = json.dumps(out, indent=1)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -62,17 +62,23 @@ from app.story.narration import (
 )
 from app.story.storage import (
     APPLICATION_ID,
+    BackupInfo,
     MIGRATIONS,
     RECOVERY_CODE_DIGITS,
     SCHEMA_VERSION,
     Group,
+    GrownUpQuestion,
     PinCheck,
     ProfileStore,
     StorageError,
     StorySummary,
+    backup_settings,
     default_profile_path,
+    grownup_lock_after,
     pin_delay_after,
+    read_backup,
     read_package,
+    restore_backup,
     valid_pin,
 )
 
@@ -93,7 +99,8 @@ __all__ = [
     # storage
     "ProfileStore", "StorageError", "StorySummary", "Group", "read_package", "default_profile_path",
     "SCHEMA_VERSION", "MIGRATIONS", "APPLICATION_ID", "PinCheck", "pin_delay_after", "valid_pin",
-    "RECOVERY_CODE_DIGITS",
+    "RECOVERY_CODE_DIGITS", "GrownUpQuestion", "grownup_lock_after",
+    "BackupInfo", "read_backup", "restore_backup", "backup_settings",
     # demo story
     "DEMO_STORY_ID", "demo_story", "wavy_path",
 ]

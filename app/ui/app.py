@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import os
+import time
 from pathlib import Path
 from typing import Callable
 
@@ -25,10 +26,23 @@ from app.paths import FONT_PATH
 from app.player import RenderThread, StageJob, app_exporter, available
 from app.player.app_renderer import has_calibration, kivy_camera_index
 from app.services import MotionCatalog, ThumbnailCache, find_speaker
-from app.story import ProfileStore, Scene, StorageError, Story, StoryEditor, demo_story, prune_narrations
+from app.story import (
+    BackupInfo,
+    ProfileStore,
+    Scene,
+    StorageError,
+    Story,
+    StoryEditor,
+    backup_settings,
+    demo_story,
+    prune_narrations,
+    read_backup,
+    restore_backup,
+)
 from app.ui.editor import EditorScreen
 from app.ui.home import HomeScreen
 from app.ui.play import PlayScreen, ProjectorScreen
+from app.ui.profile_rescue import ProfileProblemScreen
 from app.ui.projector_window import ProjectorWindow, second_display
 from app.ui.notices import NoticeToast, log_notice, notice_for, notice_sentence
 from app.ui.strings import LANGUAGES, device_language, tr
@@ -45,6 +59,40 @@ def register_fonts() -> None:
         LabelBase.register(DEFAULT_FONT, str(FONT_PATH))
     else:  # still usable in English with Kivy's own Roboto
         log.warning("font %s missing: Japanese text will not render", FONT_PATH)
+
+
+#: The screens of teacher mode: shown only while the teacher is unlocked (the PIN typed).
+TEACHER_SCREENS = ("teacher", "calibration")
+#: Teacher mode left untouched this long (seconds) locks and goes home (a teacher called away).
+TEACHER_IDLE_S = 600.0
+#: The settings that make the teacher's PIN (carried into a rescue profile from the good copy).
+PIN_SETTINGS = ("teacher_pin", "teacher_recovery")
+
+
+class GatedScreenManager(ScreenManager):
+    """The app's screens, with the teacher gate at the one place every way of changing
+    screen passes: ``current`` itself. A teacher screen asked for while locked (a Back
+    button, *Present all*'s return, a screen name set directly, a start screen given on
+    the command line) shows the PIN screen instead; showing any other screen locks
+    teacher mode again, so the PIN is asked every time teacher mode is entered."""
+
+    def __init__(self, unlocked: Callable[[], bool], lock: Callable[[], None], **kwargs):
+        self._unlocked, self._lock = unlocked, lock
+        #: when the screen was last touched (time.monotonic): teacher mode left alone locks
+        self.last_touch = time.monotonic()
+        super().__init__(**kwargs)
+
+    def on_touch_down(self, touch):
+        self.last_touch = time.monotonic()
+        return super().on_touch_down(touch)
+
+    def on_current(self, instance, value):
+        if value in TEACHER_SCREENS and not self._unlocked():
+            self.current = "pin"  # dispatches on_current("pin") in turn
+            return
+        if value is not None and value not in TEACHER_SCREENS:
+            self._lock()
+        super().on_current(instance, value)
 
 
 class StoryBeamApp(App):
@@ -69,6 +117,9 @@ class StoryBeamApp(App):
         self.video_view = "camera"  # teacher MP4s: what the audience sees on the table
         self.store: ProfileStore | None = None
         self.storage_problem: str | None = None
+        #: the profile refused at start (kept where it was) and its last good copy, if any
+        self.damaged_profile: Path | None = None
+        self.profile_backup: BackupInfo | None = None
         self.editor: StoryEditor | None = None
         self.current_scene_id: str | None = None
         self.selected_character_id: str | None = None
@@ -107,16 +158,55 @@ class StoryBeamApp(App):
         return self.db_path.with_name(self.db_path.name + ".inbox")
 
     def _open_store(self) -> None:
-        """Open the profile; if it is refused, keep the children working in a fresh
-        profile beside it and say so (the refused file is left untouched)."""
+        """Open the profile. If it is refused (damaged, foreign, unreadable), it is not
+        treated as a fresh install: the damaged file is left untouched, the first screen
+        says so and offers its last good copy (:mod:`app.ui.profile_rescue`), and until
+        then the children work in a rescue profile beside it, which carries the teacher's
+        PIN from that copy."""
         try:
             self.store = ProfileStore(self.db_path)
         except StorageError as exc:
             self.storage_problem = str(exc)
             log.error("%s", exc)
+            self.damaged_profile = self.db_path
+            self.profile_backup = read_backup(self.db_path)
             rescue = self.db_path.with_name(self.db_path.stem + ".recovered.db")
             self.store = ProfileStore(rescue)
+            if not self.store.has_pin():
+                for key, value in backup_settings(self.db_path, PIN_SETTINGS).items():
+                    self.store.set_setting(key, value)
             self.db_path = rescue
+
+    def restore_profile(self) -> bool:
+        """Put the damaged profile's last good copy back (:func:`app.story.restore_backup`;
+        the damaged file is moved aside, kept), open it, carry over the stories made in the
+        rescue profile meanwhile, and go home locked. False (and a message) when it fails."""
+        damaged = self.damaged_profile
+        try:
+            kept = restore_backup(damaged)
+            restored = ProfileStore(damaged)
+        except StorageError as exc:
+            log.error("%s", exc)
+            self.show_message(self.t("restore_failed"))
+            return False
+        rescue, self.store, self.db_path = self.store, restored, damaged
+        for summary in rescue.list_stories():
+            if restored.has_story(summary.id):
+                continue
+            try:
+                restored.save_story(rescue.load_story(summary.id))
+                for name in rescue.asset_names(summary.id):
+                    restored.put_asset(summary.id, name, rescue.read_asset(summary.id, name))
+            except StorageError as exc:  # kept in the rescue file, which stays beside it
+                log.error("not carried over: %s", exc)
+        rescue.close()
+        restored.log_activity("profile restored", detail=kept.name)
+        self.storage_problem = self.damaged_profile = self.profile_backup = None
+        self.editor = None
+        self.lock_teacher()
+        self.go_home()
+        self.show_message(self.t("restored", name=kept.name))
+        return True
 
     def build(self):
         register_fonts()
@@ -129,10 +219,10 @@ class StoryBeamApp(App):
         if available() is None:
             self.video_exporter = app_exporter(self.video_view,  # narrated scenes: their voice from the assets
                                                narration_dirs=lambda story: self.store.story_assets_dir(story.id))
-        self.sm = ScreenManager(transition=NoTransition())
+        self.sm = GatedScreenManager(lambda: self.teacher_unlocked, self.lock_teacher, transition=NoTransition())
         for screen in (HomeScreen(name="home"), EditorScreen(name="editor"), PlayScreen(name="play"),
                        ProjectorScreen(name="projector"), PinScreen(name="pin"), TeacherScreen(name="teacher"),
-                       CalibrationScreen(name="calibration")):
+                       CalibrationScreen(name="calibration"), ProfileProblemScreen(name="damaged")):
             self.sm.add_widget(screen)
         if self.demo:
             story = demo_story()
@@ -142,14 +232,16 @@ class StoryBeamApp(App):
         if self.requested_story:
             self.open_story(self.requested_story, switch=False)
             self.sm.current = self.start_screen or "editor"
-        elif self.start_screen in ("pin", "home"):
+        elif self.start_screen in ("pin", "home", *TEACHER_SCREENS):  # teacher: the PIN first (GatedScreenManager)
             self.sm.current = self.start_screen
         else:
             self.sm.current = "home"
         if hasattr(self.sm.current_screen, "refresh"):  # the first screen gets no on_pre_enter
             self.sm.current_screen.refresh()
-        if self.storage_problem:
-            Clock.schedule_once(lambda dt: self.show_message(self.t("storage_problem", why=self.storage_problem)), 0)
+        Clock.schedule_interval(self._check_idle, 5.0)
+        if self.damaged_profile is not None:  # say what happened before anything else
+            self.sm.current = "damaged"
+            self.sm.current_screen.refresh()
         return self.sm
 
     def on_stop(self):
@@ -184,6 +276,26 @@ class StoryBeamApp(App):
 
     def go_home(self) -> None:
         self.go("home")
+
+    def _check_idle(self, _dt=None) -> None:
+        """Teacher mode untouched for :data:`TEACHER_IDLE_S`: lock it and go home."""
+        if self.sm.current in TEACHER_SCREENS and time.monotonic() - self.sm.last_touch > TEACHER_IDLE_S:
+            self.lock_teacher()
+            self.go_home()
+
+    def lock_teacher(self) -> None:
+        """Leave teacher mode: the PIN is asked again before the next teacher screen."""
+        self.teacher_unlocked = False
+
+    def on_pause(self) -> bool:
+        """Android: the app goes to the background (home button, another app). Teacher
+        mode is locked; on return a teacher screen shows the PIN pad instead."""
+        self.lock_teacher()
+        return True
+
+    def on_resume(self) -> None:
+        if self.sm.current in TEACHER_SCREENS:
+            self.sm.current = "pin"
 
     def open_story(self, story_id: str, switch: bool = True) -> bool:
         try:

@@ -82,8 +82,8 @@ STRINGS: dict[str, dict[str, str]] = {
     "enter_pin": {"en": "Teacher PIN", "ja": "せんせいの ばんごう"},
     "new_pin": {"en": "Choose a PIN (4-8 digits)", "ja": "あたらしい ばんごう (4-8けた)"},
     "wrong_pin": {"en": "Wrong PIN", "ja": "ばんごうが ちがうよ"},
-    "gate_title": {"en": "For grown-ups: type the answer", "ja": "おとなの かたへ: こたえを 入力してください"},
-    "gate_question": {"en": "{a} times {b}", "ja": "{a} かける {b}"},
+    "gate_title": {"en": "For grown-ups: type this number in digits", "ja": "おとなの かたへ: この数を 数字で入力してください"},
+    "gate_wait": {"en": "Locked. Try again in {time}", "ja": "ロック中です。{time} 後に もう一度"},
     "gate_wrong": {"en": "Not quite. Please ask a grown-up.", "ja": "ちがいます。おとなの ひとに きいてね。"},
     "repeat_pin": {"en": "Type the same PIN again", "ja": "同じ番号を もう一度"},
     "pin_mismatch": {"en": "The two PINs were different. Choose again.", "ja": "ちがう番号でした。もう一度 えらんでください。"},
@@ -120,7 +120,24 @@ STRINGS: dict[str, dict[str, str]] = {
     "calib_intro": {"en": "Calibration: follow the steps", "ja": "キャリブレーション: じゅんばんに すすめてね"},
     "calib_next": {"en": "Next step", "ja": "つぎへ"},
     "calib_done": {"en": "Calibration finished", "ja": "キャリブレーション かんりょう"},
-    "storage_problem": {"en": "Could not open the saved stories: {why}", "ja": "ほぞんした おはなしを ひらけません: {why}"},
+    "damaged_backup_pin": {"en": "For the teacher: the class's file is damaged (it is kept as it is). "
+                                 "The copy saved {date}, with {n} stories and the teacher PIN, can be put back.",
+                           "ja": "先生へ: クラスの ファイルが こわれています(そのまま 保管します)。"
+                                 "{date} に保存した コピー(おはなし {n}こ・先生の番号つき)に もどせます。"},
+    "damaged_backup": {"en": "For the teacher: the class's file is damaged (it is kept as it is). "
+                             "The copy saved {date}, with {n} stories, can be put back.",
+                       "ja": "先生へ: クラスの ファイルが こわれています(そのまま 保管します)。"
+                             "{date} に保存した コピー(おはなし {n}こ)に もどせます。"},
+    "damaged_none": {"en": "For the teacher: the class's file {name} is damaged and kept as it is; there is no "
+                           "saved copy, so the children go on in a new file.",
+                     "ja": "先生へ: クラスの ファイル {name} が こわれています(そのまま 保管します)。"
+                           "コピーが ないので、あたらしい ファイルで つづけます。"},
+    "restore_copy": {"en": "Put back the copy", "ja": "コピーに もどす"},
+    "continue_new": {"en": "Continue", "ja": "つづける"},
+    "restored": {"en": "The copy is back. The damaged file is kept as {name}.",
+                 "ja": "コピーに もどしました。こわれた ファイルは {name} として 保管しました。"},
+    "restore_failed": {"en": "The copy could not be put back; the damaged file is kept as it is.",
+                       "ja": "コピーに もどせませんでした。こわれた ファイルは そのまま です。"},
     "error": {"en": "Oops: {why}", "ja": "あれれ: {why}"},
     "track_tracking": {"en": "tracking", "ja": "みえてる"},
     "track_holding": {"en": "holding", "ja": "ちょっと まって"},

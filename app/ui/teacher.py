@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import logging
 import math
-import random
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -27,10 +27,10 @@ from kivy.uix.widget import Widget
 
 from app.player.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice
 from app.services import CalibrationWizard, act_it_out_allowed, set_act_it_out_allowed
-from app.story import RECOVERY_CODE_DIGITS, StorageError, valid_pin
+from app.story import RECOVERY_CODE_DIGITS, GrownUpQuestion, StorageError, valid_pin
 from app.ui.import_picker import ImportPicker
 from app.ui.narration import RECORDING_SETTING, recording_allowed
-from app.ui.strings import tr
+from app.ui.number_words import in_words
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
 
@@ -46,41 +46,18 @@ _STEP_TEXT = {
 }
 
 
-#: Number words for the grown-up question (teacher-facing Japanese may use kanji).
-_NUMBER_WORDS = {
-    "en": {3: "three", 4: "four", 5: "five", 6: "six", 7: "seven", 8: "eight", 9: "nine", 12: "twelve",
-           13: "thirteen", 14: "fourteen", 15: "fifteen", 16: "sixteen", 17: "seventeen", 18: "eighteen",
-           19: "nineteen"},
-    "ja": {3: "三", 4: "四", 5: "五", 6: "六", 7: "七", 8: "八", 9: "九", 12: "十二", 13: "十三", 14: "十四",
-           15: "十五", 16: "十六", 17: "十七", 18: "十八", 19: "十九"},
-}
 #: Digits the pad takes in each mode.
-_MAX_DIGITS = {"gate": 3, "new1": 8, "new2": 8, "enter": 8, "recover": RECOVERY_CODE_DIGITS}
+_MAX_DIGITS = {"gate": 6, "new1": 8, "new2": 8, "enter": 8, "recover": RECOVERY_CODE_DIGITS}
+#: A PIN being chosen (after the grown-up check or a recovery code), or a recovery code
+#: shown and not yet confirmed, is abandoned after this many seconds without a key: a
+#: grown-up who walks away mid-way leaves nothing a child can finish (the check, the
+#: recovery code or the PIN is asked again; an unconfirmed code is replaced).
+SETUP_IDLE_S = 120.0
 
 
-class GrownUpQuestion:
-    """The parental gate before the first PIN: a product of a teen number and a digit,
-    written in words ("seventeen times eight"), typed on the pad.
-
-    Why a 5-8-year-old cannot pass it by tapping: the answer (36-171) must be typed
-    exactly, a wrong answer brings a new question, and random taps of three digits and OK
-    hit the answer with probability at most 1/1000 per try; reading the words and
-    multiplying a two-digit number is beyond the first grades (Japanese children learn
-    the one-digit tables, 九九, in grade 2)."""
-
-    def __init__(self, rng: random.Random | None = None):
-        self.rng = rng or random.SystemRandom()
-        self.next()
-
-    def next(self) -> None:
-        self.a, self.b = self.rng.randint(12, 19), self.rng.randint(3, 9)
-
-    def text(self, lang: str) -> str:
-        words = _NUMBER_WORDS.get(lang, _NUMBER_WORDS["en"])
-        return tr("gate_question", lang, a=words[self.a], b=words[self.b])
-
-    def check(self, answer: str) -> bool:
-        return answer.isdecimal() and int(answer) == self.a * self.b
+def question_text(question: GrownUpQuestion, lang: str) -> str:
+    """The grown-up check as shown: the number in words (:mod:`app.ui.number_words`)."""
+    return in_words(question.number, lang)
 
 
 def _wait_text(seconds: float) -> str:
@@ -91,11 +68,14 @@ def _wait_text(seconds: float) -> str:
 class PinScreen(Screen):
     """The teacher's way in, on a big number pad.
 
-    Modes: ``gate`` (a fresh install: the grown-up question first), ``new1``/``new2``
-    (the new PIN, typed twice), ``code`` (the recovery code, shown once), ``enter`` (the
-    PIN; wrong ones slowed down by :meth:`ProfileStore.try_pin`), ``recover`` (the
-    recovery code instead of a forgotten PIN, then ``new1``/``new2``; stories are kept).
-    Leaving the screen starts over, so no step can be skipped."""
+    Modes: ``gate`` (a fresh install: the grown-up check first -- a six-digit number in
+    words to type in digits; a wrong answer locks it for a growing time,
+    :meth:`ProfileStore.try_grownup`, and brings a new number), ``new1``/``new2`` (the new
+    PIN, typed twice), ``code`` (the recovery code, shown once), ``enter`` (the PIN; wrong
+    ones slowed down by :meth:`ProfileStore.try_pin`), ``recover`` (the recovery code
+    instead of a forgotten PIN, then ``new1``/``new2``; stories are kept). Leaving the
+    screen, or :data:`SETUP_IDLE_S` without a key while a PIN is being chosen, starts
+    over, so no step can be skipped or finished by someone else."""
 
     #: OK presses so far (what the UI tests wait on after a tap of OK).
     submits = 0
@@ -108,7 +88,8 @@ class PinScreen(Screen):
 
     def _start_over(self) -> None:
         app = App.get_running_app()
-        self.question = GrownUpQuestion()
+        self.question = GrownUpQuestion.draw()
+        self.last_key_at = time.monotonic()
         self.recovery_used: str | None = None  # the code that unlocked a reset
         self.first_pin = ""
         self.shown_code = ""
@@ -120,15 +101,23 @@ class PinScreen(Screen):
         Clock.unschedule(self._tick)
 
     def _tick(self, _dt) -> None:
-        """Count a running wait down on screen."""
-        if getattr(self, "mode", None) not in ("enter", "recover"):
+        """Count a running lock down on screen; start over when a PIN being chosen was left."""
+        mode = getattr(self, "mode", None)
+        if mode in ("new1", "new2", "code") and time.monotonic() - self.last_key_at > SETUP_IDLE_S:
+            if mode == "code":  # never confirmed as written down: the next right PIN shows a new one
+                App.get_running_app().store.forget_recovery_code()
+                self.shown_code = ""
+            self._start_over()
+            self.refresh()
+            return
+        if mode not in ("enter", "recover", "gate"):
             return
         store = App.get_running_app().store
         if store is None:
             return
-        wait = store.pin_wait() if self.mode == "enter" else store.recovery_wait()
+        wait = {"enter": store.pin_wait, "recover": store.recovery_wait, "gate": store.grownup_wait}[mode]()
         if wait > 0:
-            self.message.text = App.get_running_app().t("pin_wait", time=_wait_text(wait))
+            self.message.text = App.get_running_app().t(self._wait_key(), time=_wait_text(wait))
             self._counting = True
         elif getattr(self, "_counting", False):
             self.message.text = self.note = ""
@@ -161,7 +150,9 @@ class PinScreen(Screen):
         root.add_widget(bar)
         self.question_label = None
         if self.mode == "gate":
-            self.question_label = big_label(self.question.text(app.lang), 32, colour=(0.1, 0.2, 0.6, 1))
+            self.question_label = big_label(question_text(self.question, app.lang), 28, colour=(0.1, 0.2, 0.6, 1),
+                                            halign="center", valign="middle", height=dp(80))
+            self.question_label.bind(width=lambda lbl, w: setattr(lbl, "text_size", (w, None)))
             root.add_widget(self.question_label)
         self.display = big_label(self._shown(), 36)
         self.message = big_label(self.note, 18, colour=(0.8, 0.1, 0.1, 1), halign="center", valign="middle",
@@ -207,10 +198,12 @@ class PinScreen(Screen):
         return "●" * len(self.entered)
 
     def _switch(self, mode: str, note: str = "") -> None:
+        self.last_key_at = time.monotonic()
         self.mode, self.entered, self.note = mode, "", note
         self.refresh()
 
     def press(self, key: str) -> None:
+        self.last_key_at = time.monotonic()
         if key == "clear":
             self.entered = ""
         elif key == "ok":
@@ -226,10 +219,12 @@ class PinScreen(Screen):
         t, store, entered = app.t, app.store, self.entered
         try:
             if self.mode == "gate":
-                if self.question.check(entered):
+                check = store.try_grownup(self.question, entered)
+                if check.ok:
                     return self._switch("new1")
-                self.question.next()  # a new question after every wrong answer
-                return self._switch("gate", t("gate_wrong"))
+                if not check.refused:  # a new number after every checked answer: none repeats
+                    self.question = GrownUpQuestion.draw(previous=self.question)
+                return self._switch("gate", self._refusal(check, "gate_wrong"))
             if self.mode == "new1":
                 if not valid_pin(entered):
                     return self._switch("new1", t("pin_digits"))
@@ -262,13 +257,16 @@ class PinScreen(Screen):
         except StorageError as exc:  # a damaged PIN record, a full disk: say so; "forgot PIN" stays offered
             self._switch(self.mode, str(exc))
 
+    def _wait_key(self) -> str:
+        return "gate_wait" if self.mode == "gate" else "pin_wait"
+
     def _refusal(self, check, wrong_key: str) -> str:
         app = App.get_running_app()
         if check.refused:
-            return app.t("pin_wait", time=_wait_text(check.wait_s))
+            return app.t(self._wait_key(), time=_wait_text(check.wait_s))
         text = app.t(wrong_key)
         if check.wait_s > 0:
-            text += "\n" + app.t("pin_wait", time=_wait_text(check.wait_s))
+            text += "\n" + app.t(self._wait_key(), time=_wait_text(check.wait_s))
         return text
 
     def forgot(self) -> None:
@@ -295,11 +293,16 @@ class TeacherScreen(Screen):
             return
         self.refresh()
 
+    def on_leave(self, *args):
+        self.clear_widgets()  # nothing of teacher mode stays behind, drawn or not
+
     def refresh(self) -> None:
         app = App.get_running_app()
         t = app.t
         store = app.store
         self.clear_widgets()
+        if not app.teacher_unlocked:  # never drawn without the PIN, whoever asks for it
+            return
         root = filled(BoxLayout(padding=dp(12), spacing=dp(12)), (0.93, 0.95, 0.98, 1))
         left = BoxLayout(orientation="vertical", spacing=dp(8))
         bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
@@ -543,6 +546,9 @@ class CalibrationScreen(Screen):
 
     def on_pre_enter(self, *args):
         app = App.get_running_app()
+        if not app.teacher_unlocked:
+            Clock.schedule_once(lambda dt: app.go("pin"), 0)
+            return
         self.wizard = CalibrationWizard(Path(app.profile_dir), scan_capture=rig_scan_capture(app))
         self.refresh()
 
@@ -550,6 +556,8 @@ class CalibrationScreen(Screen):
         app = App.get_running_app()
         t = app.t
         self.clear_widgets()
+        if not app.teacher_unlocked or not hasattr(self, "wizard"):
+            return
         root = filled(BoxLayout(orientation="vertical", padding=dp(16), spacing=dp(10)), (0.93, 0.95, 0.98, 1))
         bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
         bar.add_widget(IconButton("home", t("back"), on_press=lambda: app.go("teacher"), size_hint_x=None,

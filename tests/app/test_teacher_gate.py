@@ -21,6 +21,7 @@ from app.story.storage import (
     pin_delay_after,
 )
 from tests.app.test_ui import _drive
+from lab.stress.gate import read_number
 
 
 @pytest.fixture(autouse=True)
@@ -185,10 +186,12 @@ def test_damaged_or_foreign_pin_records_say_so(tmp_path):
 @pytest.mark.slow  # starts the app in a child process
 def test_fresh_install_gate_taps_alone_cannot_claim_teacher_mode(tmp_path):
     r, out = _drive(tmp_path, "teacher_gate")
-    assert r["first_mode"] == "gate" and " times " in r["first_question"]
-    mode, note, _question = r["after_empty_ok"]
-    assert mode == "gate" and note == "Not quite. Please ask a grown-up."
+    assert r["first_mode"] == "gate" and len(str(read_number(r["first_question"], "en"))) == 6  # a number in words
+    mode, note, question = r["after_empty_ok"]
+    assert mode == "gate" and note == "Not quite. Please ask a grown-up.\nLocked. Try again in 0:30"
+    assert question != r["first_question"]  # a new number after the wrong answer
     assert r["after_random"] == ["gate", False, "pin"]  # 80 random taps: still the question, no PIN
+    assert r["gate_failures"] == 1  # every OK among them came during the lock: refused, not even checked
     assert r["after_answer"] == "new1" and r["after_first"] == "new2"
     mode, note, has_pin = r["after_mismatch"]
     assert (mode, note, has_pin) == ("new1", "The two PINs were different. Choose again.", False)

@@ -106,6 +106,10 @@ from act_scenarios import RENDERED as ACT_RENDERED  # noqa: E402  (issue 18: Act
 from act_scenarios import SCENARIOS as ACT_SCENARIOS  # noqa: E402
 
 SCENARIOS.update(ACT_SCENARIOS)
+from gate_scenarios import SCENARIOS as GATE_SCENARIOS  # noqa: E402  (issue 29: the teacher gate, own file)
+from gate_scenarios import SETUPS as GATE_SETUPS  # noqa: E402
+
+SCENARIOS.update(GATE_SCENARIOS)
 app_ref: list = []
 
 
@@ -140,6 +144,7 @@ class DriverApp(StoryBeamApp):
     def _first(self, _dt):
         """Start only after two drawn frames: before that the layout may not have run."""
         if self._flips < 2:
+            Window.canvas.ask_update()  # a still first screen (the PIN pad) draws no frame by itself
             Clock.schedule_once(self._first, 0.05)
             return
         Clock.schedule_once(self._next, 0.1)
@@ -256,12 +261,15 @@ if __name__ == "__main__":
         with zipfile.ZipFile(inbox / "broken.zip", "w") as zf:
             zf.writestr("manifest.json", "{not json")
             zf.writestr("story.json", "{}")
+    if SCENARIO in GATE_SETUPS:
+        GATE_SETUPS[SCENARIO](DB, OUT)
     factory = None
     if SCENARIO in ("play3d", "projector3d", *TABLET_RENDERED, *ACT_RENDERED):
         from app.player import app_renderer_factory
         factory = app_renderer_factory(DB.parent)
     catalog = MotionCatalog(Path(os.environ["STORYBEAM_TEST_MOTIONS"]), build_index=False) \
         if os.environ.get("STORYBEAM_TEST_MOTIONS") else MotionCatalog(build_index=SCENARIO in TABLET_RENDERED)
-    app = DriverApp(DB, lang=lang, demo=demo, catalog=catalog, renderer_factory=factory)
+    app = DriverApp(DB, lang=lang, demo=demo, catalog=catalog, renderer_factory=factory,
+                    start_screen=os.environ.get("STORYBEAM_TEST_START"))
     app_ref.append(app)
     app.run()

@@ -16,6 +16,9 @@ from pathlib import Path
 from kivy.core.window import Window
 from ui_touch import centre, drag, stroke, table_px, tap, touching
 
+from app.story import GrownUpQuestion
+from lab.stress.gate import read_number
+
 drv = sys.modules["__main__"]
 
 
@@ -347,15 +350,11 @@ def import_steps(app):
     yield drv.finish
 
 
-_WORDS = {"three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8, "nine": 9, "twelve": 12,
-          "thirteen": 13, "fourteen": 14, "fifteen": 15, "sixteen": 16, "seventeen": 17, "eighteen": 18,
-          "nineteen": 19}
-
-
 def grown_up_answer(question: str) -> str:
-    """What a grown-up types for the English question shown ("seventeen times eight")."""
-    a, _times, b = question.split()
-    return str(_WORDS[a] * _WORDS[b])
+    """What a grown-up types for the English number shown in words ("four hundred
+    seventy-two thousand, six hundred nineteen" -> "472619"): read by the stress
+    harness's own parser, independent of the app's words."""
+    return str(read_number(question, "en"))
 
 
 def type_on_pad(app, digits: str, ok: bool = True):
@@ -377,10 +376,11 @@ def gate_steps(app):
     home = lambda: app.sm.get_screen("home")  # noqa: E731
     yield touching(lambda: tap(home().teacher_button), until=lambda: app.sm.current == "pin")
     yield lambda: drv.result.update(first_mode=pin().mode, first_question=pin().question_label.text)
+    clock = [1_000_000.0]  # the gate's monotonic clock, moved by the test (no real waiting)
+    yield lambda: setattr(app.store, "pin_clock", lambda: clock[0])
 
     def seeded_questions():  # the child's taps below are then the same every run
-        pin().question.rng = random.Random(3)
-        pin().question.next()
+        pin().question = GrownUpQuestion.draw(random.Random(3))
         pin().refresh()
     yield seeded_questions
     yield lambda: drv.shot("gate")
@@ -392,7 +392,9 @@ def gate_steps(app):
     for k in keys:
         key = {"o": "ok", "c": "clear"}.get(k, k)
         yield lambda key=key: tap(pin().keys[key])
-    yield lambda: drv.result.update(after_random=[pin().mode, app.store.has_pin(), app.sm.current])
+    yield lambda: drv.result.update(after_random=[pin().mode, app.store.has_pin(), app.sm.current],
+                                    gate_failures=app.store.try_grownup(pin().question, "").failures)
+    yield lambda: clock.__setitem__(0, clock[0] + app.store.grownup_wait() + 1)  # the grown-up comes after the lock
     # the grown-up answers from the words on the screen
     yield lambda: drv.result.update(question=pin().question_label.text)
     yield from type_on_pad(app, grown_up_answer(pin().question_label.text))
@@ -408,9 +410,7 @@ def gate_steps(app):
     yield lambda: drv.shot("recovery_code")
     yield touching(lambda: tap(pin().done_button), until=lambda: app.sm.current == "teacher")
     yield lambda: drv.result.update(after_code=app.sm.current)
-    # wrong PINs, on a clock the test moves (no real waiting)
-    clock = [1_000_000.0]
-    yield lambda: setattr(app.store, "pin_clock", lambda: clock[0])
+    # wrong PINs, on the clock the test moves (no real waiting)
     yield lambda: app.sm.get_screen("teacher").leave()
     yield touching(lambda: tap(home().teacher_button), until=lambda: app.sm.current == "pin")
     yield lambda: drv.result.update(enter_mode=pin().mode, pad_sizes=[[b.width, b.height] for b in pin().keys.values()])

@@ -3,6 +3,7 @@ the lab and the tests use, each delegated to the module of its concern."""
 from __future__ import annotations
 
 import functools
+import logging
 import os
 import sqlite3
 import time
@@ -10,11 +11,14 @@ from pathlib import Path
 from typing import Any, Callable
 
 from app.story.storage.assets import AssetFolder
+from app.story.storage.backup import write_backup
 from app.story.storage.classroom import Classroom
-from app.story.storage.database import ProfileDatabase
+from app.story.storage.database import ProfileDatabase, StorageError
 from app.story.storage.packages import PackageShelf
 from app.story.storage.stories import StoryShelf
-from app.story.storage.teacher import Settings, TeacherGate
+from app.story.storage.teacher import Settings, TeacherGate, current_boot_id
+
+log = logging.getLogger(__name__)
 
 
 def forward(part: str, member: Callable[..., Any] | property) -> Any:
@@ -44,9 +48,11 @@ class ProfileStore:
     one of each, sharing the connection, and forwards to them.
     """
 
-    #: The clock PIN delays are measured with (seconds since the epoch, so a wait survives
-    #: closing the app). Tests and the UI monkey assign their own (no real sleeps).
-    pin_clock = staticmethod(time.time)
+    #: The clock the gate's locks are measured with: monotonic (the device's clock setting
+    #: cannot move it), counted per boot (``boot_id``; see :mod:`.teacher`). Tests, the UI
+    #: monkey and ``storybeam stress gate`` assign their own (no real sleeps).
+    pin_clock = staticmethod(time.monotonic)
+    boot_id = staticmethod(current_boot_id)
 
     def __init__(self, db_path: str | Path):
         self.db_path = Path(db_path)
@@ -55,10 +61,11 @@ class ProfileStore:
         self._assets = AssetFolder(self.assets_dir)
         self._stories = StoryShelf(self._db, self._assets)
         self._settings = Settings(self._db)
-        self._gate = TeacherGate(self._db, self._settings, lambda: self.pin_clock())
+        self._gate = TeacherGate(self._db, self._settings, lambda: self.pin_clock(), lambda: self.boot_id())
         self._classroom = Classroom(self._db, self._settings)
         self._packages = PackageShelf(self._stories, self._assets)
         self.leftovers_removed = self._assets.clean_leftovers()
+        self.back_up()
 
     # -- the database -----------------------------------------------------------------
     @property
@@ -74,8 +81,22 @@ class ProfileStore:
     schema_version = forward("_db", ProfileDatabase.schema_version)
     journal_mode = forward("_db", ProfileDatabase.journal_mode)
 
+    def back_up(self) -> bool:
+        """Rotate the last good copy (:func:`~app.story.storage.backup.write_backup`): done
+        on opening, after every PIN change and on closing; True when a new copy was written.
+        A copy that cannot be written (a full disk, a read-only folder) is logged and the
+        previous one kept: the profile itself stays usable."""
+        try:
+            return write_backup(self._db)
+        except StorageError as exc:
+            log.warning("%s", exc)
+            return False
+
     def close(self) -> None:
-        """Close the database (checkpointing the WAL into the main file)."""
+        """Close the database (checkpointing the WAL into the main file), after one last
+        backup (a database that fails its check, or a full disk, keeps the copy it had)."""
+        if self._db.conn is not None:
+            self.back_up()
         self._db.close()
 
     def __enter__(self) -> "ProfileStore":
@@ -103,13 +124,29 @@ class ProfileStore:
     has_pin = forward("_gate", TeacherGate.has_pin)
     has_recovery_code = forward("_gate", TeacherGate.has_recovery_code)
     new_recovery_code = forward("_gate", TeacherGate.new_recovery_code)
-    set_pin = forward("_gate", TeacherGate.set_pin)
+    forget_recovery_code = forward("_gate", TeacherGate.forget_recovery_code)
+
+    def set_pin(self, pin: str) -> str:
+        """:meth:`TeacherGate.set_pin <app.story.storage.teacher.TeacherGate.set_pin>`, then a
+        backup at once: the last good copy always carries the PIN in force."""
+        code = self._gate.set_pin(pin)
+        self.back_up()
+        return code
+
+    def reset_pin(self, recovery_code: str, new_pin: str) -> str:
+        """:meth:`TeacherGate.reset_pin <app.story.storage.teacher.TeacherGate.reset_pin>`,
+        then a backup at once (as :meth:`set_pin`)."""
+        code = self._gate.reset_pin(recovery_code, new_pin)
+        self.back_up()
+        return code
+
     verify_pin = forward("_gate", TeacherGate.verify_pin)
     pin_wait = forward("_gate", TeacherGate.pin_wait)
     recovery_wait = forward("_gate", TeacherGate.recovery_wait)
     try_pin = forward("_gate", TeacherGate.try_pin)
     try_recovery_code = forward("_gate", TeacherGate.try_recovery_code)
-    reset_pin = forward("_gate", TeacherGate.reset_pin)
+    grownup_wait = forward("_gate", TeacherGate.grownup_wait)
+    try_grownup = forward("_gate", TeacherGate.try_grownup)
 
     create_session = forward("_classroom", Classroom.create_session)
     list_sessions = forward("_classroom", Classroom.list_sessions)

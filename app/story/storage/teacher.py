@@ -1,10 +1,28 @@
-"""Profile settings and the teacher gate: the PIN, its recovery code and the delays after
-wrong tries.
+"""Profile settings and the teacher gate: the grown-up check before the first PIN, the PIN,
+its recovery code and the locks after wrong answers.
 
 Settings are ``key -> text`` rows. The PIN and the recovery code are stored only as salted
-PBKDF2 hashes (:func:`hashlib.pbkdf2_hmac`, parameters stored with the hash); wrong tries
-are slowed down (:func:`pin_delay_after`) with the state kept in the settings, so closing
-the app does not reset it.
+PBKDF2 hashes (:func:`hashlib.pbkdf2_hmac`, parameters stored with the hash).
+
+**Locks on a clock a child cannot move.** A wrong grown-up answer locks the check
+(:func:`grownup_lock_after`: 30 s, 1, 2, 5 min, then 15 min after every further wrong
+answer); wrong PINs and recovery codes are slowed down (:func:`pin_delay_after`). A lock
+is a record ``{failures, remaining, mark, boot}`` in the settings: the seconds of lock
+*remaining* when the monotonic clock (``time.monotonic``, which the device's clock
+setting does not move) read *mark* during the boot *boot*
+(``/proc/sys/kernel/random/boot_id``). The lock left now is ``remaining - (now - mark)``
+when the boot is the same and the clock has not gone back; after a reboot (a new boot id,
+a new monotonic origin) or a clock that went back, nothing is counted since the mark and
+the record is re-anchored to the present, so the rest of the wait starts over from
+there: a restart, a reboot or a moved wall clock never shortens a lock, and no lock is
+ever longer than the one that was set. Where the boot id cannot be read, each process
+counts as its own boot: the lock then counts down only while the app runs.
+
+**The grown-up check** (:class:`GrownUpQuestion`): a six-digit number written in words
+("four hundred seventy-two thousand, six hundred nineteen"), to be typed in digits. The
+number is drawn uniformly from 100 000-999 999 (no answer is favoured; never the one just
+asked), so a guess hits with probability 1/900 000, and with the locks a child gets about
+29 answers checked in a 6.5-hour school day (``storybeam stress gate`` measures it).
 """
 from __future__ import annotations
 
@@ -13,9 +31,12 @@ import hmac
 import json
 import math
 import os
+import random
 import re
 import secrets
+import uuid
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 from app.story.storage.database import ProfileDatabase, StorageError, as_storage_error
@@ -32,6 +53,15 @@ PIN_MAX_DELAY_S = 15 * 60.0
 #: Digits of the recovery code shown once when a PIN is set (10**12 codes: not guessable by tapping).
 RECOVERY_CODE_DIGITS = 12
 RECOVERY_PATTERN = re.compile(rf"^[0-9]{{{RECOVERY_CODE_DIGITS}}}$")
+#: The grown-up check's lock after the 1st, 2nd, ... wrong answer in a row (seconds); every
+#: later wrong answer locks it for the last (15 minutes).
+GROWNUP_LOCKS_S = (30.0, 60.0, 120.0, 300.0, 900.0)
+#: The range the grown-up check's number is drawn from, uniformly (six digits).
+GROWNUP_MIN, GROWNUP_MAX = 100_000, 999_999
+#: Settings keys of the three lock records.
+PIN_LOCK, RECOVERY_LOCK, GROWNUP_LOCK = "teacher_pin_attempts", "teacher_recovery_attempts", "grownup_attempts"
+BOOT_ID_FILE = Path("/proc/sys/kernel/random/boot_id")
+_PROCESS_BOOT = f"process-{uuid.uuid4()}"
 
 
 def pin_delay_after(failures: int) -> float:
@@ -49,16 +79,57 @@ def pin_delay_after(failures: int) -> float:
     return min(PIN_FIRST_DELAY_S * 2.0 ** doublings, PIN_MAX_DELAY_S)
 
 
+def grownup_lock_after(failures: int) -> float:
+    """Seconds the grown-up check stays locked after ``failures`` wrong answers in a row:
+    none before the first, then :data:`GROWNUP_LOCKS_S` (30 s, 1 min, 2 min, 5 min,
+    15 min), 15 minutes for every one after the fifth."""
+    if failures <= 0:
+        return 0.0
+    return GROWNUP_LOCKS_S[min(failures, len(GROWNUP_LOCKS_S)) - 1]
+
+
 def valid_pin(pin: object) -> bool:
     """Whether ``pin`` has the form of a teacher PIN (4 to 8 digits)."""
     return isinstance(pin, str) and PIN_PATTERN.match(pin) is not None
 
 
+def current_boot_id() -> str:
+    """This boot's id (Linux and Android: ``/proc/sys/kernel/random/boot_id``, new at every
+    start of the device); where it cannot be read, an id of this process, so a lock then
+    counts down only while the app runs (never faster)."""
+    try:
+        text = BOOT_ID_FILE.read_text(encoding="ascii").strip()
+    except (OSError, UnicodeDecodeError):
+        return _PROCESS_BOOT
+    return text or _PROCESS_BOOT
+
+
+@dataclass(frozen=True)
+class GrownUpQuestion:
+    """One grown-up check: type :attr:`number` (shown in words, :mod:`app.ui.teacher`) in
+    digits. :meth:`draw` picks it uniformly from :data:`GROWNUP_MIN`-:data:`GROWNUP_MAX`."""
+
+    number: int
+
+    @classmethod
+    def draw(cls, rng: random.Random | None = None, previous: "GrownUpQuestion | None" = None) -> "GrownUpQuestion":
+        """A new question, uniform over the six-digit numbers, never ``previous`` again."""
+        rng = rng or random.SystemRandom()
+        while True:
+            number = rng.randint(GROWNUP_MIN, GROWNUP_MAX)
+            if previous is None or number != previous.number:
+                return cls(number)
+
+    def check(self, answer: str) -> bool:
+        """Whether the digits typed are the number (no sign, no spaces: the pad has none)."""
+        return isinstance(answer, str) and answer.isascii() and answer.isdecimal() and int(answer) == self.number
+
+
 @dataclass(frozen=True)
 class PinCheck:
-    """The answer to one PIN (or recovery code) try.
+    """The answer to one try (a PIN, a recovery code or a grown-up answer).
 
-    ``ok``: it matched. ``refused``: it was not even checked, because the wait after the
+    ``ok``: it matched. ``refused``: it was not even checked, because the lock after the
     last wrong tries is not over. ``wait_s``: seconds before the next try is accepted.
     ``failures``: wrong tries in a row so far.
     """
@@ -67,6 +138,14 @@ class PinCheck:
     refused: bool
     wait_s: float
     failures: int
+
+
+@dataclass(frozen=True)
+class _Lock:
+    failures: int
+    remaining: float
+    mark: float
+    boot: str
 
 
 class Settings:
@@ -89,13 +168,19 @@ class Settings:
 
 
 class TeacherGate:
-    """The teacher PIN and recovery code, kept as settings; ``clock`` measures the delays
-    (seconds since the epoch, so a wait survives closing the app)."""
+    """The grown-up check, the teacher PIN and its recovery code, kept as settings.
 
-    def __init__(self, db: ProfileDatabase, settings: Settings, clock: Callable[[], float]):
+    ``clock`` is monotonic (seconds; the device's clock setting does not move it) and
+    ``boot`` names the boot it counts from (:func:`current_boot_id`): the locks are
+    measured on them (see the module docstring), so closing the app, restarting the
+    tablet or moving its clock never shortens one."""
+
+    def __init__(self, db: ProfileDatabase, settings: Settings, clock: Callable[[], float],
+                 boot: Callable[[], str] = current_boot_id):
         self._db = db
         self._settings = settings
         self._clock = clock
+        self._boot = boot
 
     def has_pin(self) -> bool:
         return self._settings.get("teacher_pin") is not None
@@ -137,7 +222,7 @@ class TeacherGate:
             for key, value in records.items():
                 conn.execute("INSERT INTO settings (key, value) VALUES (?, ?) "
                              "ON CONFLICT(key) DO UPDATE SET value = excluded.value", (key, value))
-            conn.execute("DELETE FROM settings WHERE key IN ('teacher_pin_attempts', 'teacher_recovery_attempts')")
+            conn.execute("DELETE FROM settings WHERE key IN (?, ?)", (PIN_LOCK, RECOVERY_LOCK))
         return code
 
     def has_recovery_code(self) -> bool:
@@ -153,6 +238,13 @@ class TeacherGate:
         self._settings.set("teacher_recovery", self._hash_secret(code))
         return code
 
+    def forget_recovery_code(self) -> None:
+        """Drop the recovery code of the PIN in place (a code shown but never confirmed as
+        written down: the screen was left alone). The next right PIN makes and shows a new
+        one (:meth:`new_recovery_code`), so no code stays valid that no grown-up kept."""
+        with self._db.transaction() as conn:
+            conn.execute("DELETE FROM settings WHERE key = 'teacher_recovery'")
+
     def set_pin(self, pin: str) -> str:
         """Set the teacher PIN (4-8 digits) and return a new recovery code
         (:data:`RECOVERY_CODE_DIGITS` digits) to show the teacher once; only salted PBKDF2
@@ -165,68 +257,93 @@ class TeacherGate:
             return False
         return self._secret_matches("teacher_pin", pin, "teacher PIN")
 
-    def _attempts(self, key: str) -> tuple[int, float, float]:
-        """(failures in a row, wait-until time, the wait's length) stored under ``key``."""
+    def _lock(self, key: str, schedule: Callable[[int], float]) -> _Lock:
+        """The lock record under ``key``; a damaged one counts as one failure more than the
+        free ones, locked for that failure's full time from now (never fewer delays)."""
         raw = self._settings.get(key)
         if raw is None:
-            return 0, 0.0, 0.0
+            return _Lock(0, 0.0, self._clock(), self._boot())
         try:
             data = json.loads(raw)
-            failures, until, delay = int(data["failures"]), float(data["until"]), float(data["delay"])
-        except (ValueError, TypeError, KeyError):  # damaged: never fewer delays than one failure more
-            failures = PIN_FREE_ATTEMPTS + 1
-            delay = pin_delay_after(failures)
-            return failures, self._clock() + delay, delay
-        return max(failures, 0), until, delay
+            lock = _Lock(max(int(data["failures"]), 0), float(data["remaining"]), float(data["mark"]),
+                         str(data["boot"]))
+            if not (math.isfinite(lock.remaining) and math.isfinite(lock.mark)):
+                raise ValueError("not finite")
+            return lock
+        except (ValueError, TypeError, KeyError, AttributeError):  # damaged, or a wall-clock record of old
+            failures = next(f for f in range(1, 64) if schedule(f) > 0)
+            if isinstance(data := _json_or_none(raw), dict) and isinstance(data.get("failures"), int):
+                failures = max(failures, data["failures"])
+            lock = _Lock(failures, schedule(failures), self._clock(), self._boot())
+            self._store_lock(key, lock)
+            return lock
 
-    def _wait(self, key: str) -> float:
-        _failures, until, delay = self._attempts(key)
-        # never longer than the wait that was set: a clock put back cannot lock a teacher out
-        return max(0.0, min(until - self._clock(), delay))
+    def _store_lock(self, key: str, lock: _Lock) -> None:
+        self._settings.set(key, json.dumps({"failures": lock.failures, "remaining": lock.remaining,
+                                            "mark": lock.mark, "boot": lock.boot}))
 
-    def _throttled_try(self, key: str, matches: bool | None) -> PinCheck:
-        """Record one try of the secret whose attempts are under ``key``; ``matches`` is
-        None when the try was refused before checking."""
-        failures, _until, _delay = self._attempts(key)
-        if matches is None:
-            return PinCheck(False, True, self._wait(key), failures)
-        if matches:
+    def _wait(self, key: str, schedule: Callable[[int], float]) -> float:
+        """Seconds of lock left under ``key``: counted down on the monotonic clock of the
+        boot that set it; re-anchored (nothing counted) after a reboot or a clock gone back."""
+        lock = self._lock(key, schedule)
+        if lock.remaining <= 0:
+            return 0.0
+        now, boot = self._clock(), self._boot()
+        if boot == lock.boot and now >= lock.mark:
+            return max(0.0, lock.remaining - (now - lock.mark))
+        self._store_lock(key, _Lock(lock.failures, lock.remaining, now, boot))
+        return lock.remaining
+
+    def _throttled_try(self, key: str, schedule: Callable[[int], float], matches: Callable[[], bool]) -> PinCheck:
+        """One try of the secret (or answer) whose lock is under ``key``: refused unchecked
+        (``matches`` not called) while locked; right: the record is cleared; wrong: one
+        failure more and the lock ``schedule(failures)`` from now, persisted."""
+        wait = self._wait(key, schedule)
+        failures = self._lock(key, schedule).failures
+        if wait > 0:
+            return PinCheck(False, True, wait, failures)
+        if matches():
             with self._db.transaction() as conn:
                 conn.execute("DELETE FROM settings WHERE key = ?", (key,))
             return PinCheck(True, False, 0.0, 0)
         failures += 1
-        delay = pin_delay_after(failures)
-        self._settings.set(key, json.dumps({"failures": failures, "until": self._clock() + delay, "delay": delay}))
+        delay = schedule(failures)
+        self._store_lock(key, _Lock(failures, delay, self._clock(), self._boot()))
         return PinCheck(False, False, delay, failures)
+
+    # -- the grown-up check ---------------------------------------------------------------
+    def grownup_wait(self) -> float:
+        """Seconds before the grown-up check takes an answer again (0: now)."""
+        return self._wait(GROWNUP_LOCK, grownup_lock_after)
+
+    def try_grownup(self, question: GrownUpQuestion, answer: str) -> PinCheck:
+        """One answer to the grown-up check: refused unchecked while it is locked; a wrong
+        answer locks it (:func:`grownup_lock_after`), persisted; a right one clears the lock.
+        The UI then asks a new question (:meth:`GrownUpQuestion.draw`) whatever the answer."""
+        return self._throttled_try(GROWNUP_LOCK, grownup_lock_after, lambda: question.check(answer))
 
     def pin_wait(self) -> float:
         """Seconds before the next teacher PIN try is accepted (0: now)."""
-        return self._wait("teacher_pin_attempts")
+        return self._wait(PIN_LOCK, pin_delay_after)
 
     def recovery_wait(self) -> float:
         """Seconds before the next recovery-code try is accepted (0: now)."""
-        return self._wait("teacher_recovery_attempts")
+        return self._wait(RECOVERY_LOCK, pin_delay_after)
 
     def try_pin(self, pin: str) -> PinCheck:
         """One PIN try from the number pad: refused unchecked while a wait runs; a wrong
         PIN adds a failure and sets the next wait (:func:`pin_delay_after`), persisted."""
-        key = "teacher_pin_attempts"
-        if self._wait(key) > 0:
-            return self._throttled_try(key, None)
-        return self._throttled_try(key, valid_pin(pin) and self._secret_matches("teacher_pin", pin, "teacher PIN"))
+        return self._throttled_try(PIN_LOCK, pin_delay_after,
+                                   lambda: valid_pin(pin) and self._secret_matches("teacher_pin", pin, "teacher PIN"))
 
     def try_recovery_code(self, code: str) -> PinCheck:
         """One recovery-code try (spaces and dashes ignored), slowed down like the PIN but
         counted apart, so a child's wrong PINs never block the teacher's recovery."""
-        key = "teacher_recovery_attempts"
-        if self._wait(key) > 0:
-            return self._throttled_try(key, None)
-        code = code.replace(" ", "").replace("-", "") if isinstance(code, str) else ""
         if self._settings.get("teacher_recovery") is None:
             raise StorageError(f"{self._db.db_path}: no recovery code was set with this PIN")
-        ok = RECOVERY_PATTERN.match(code) is not None and self._secret_matches("teacher_recovery", code,
-                                                                               "recovery code")
-        return self._throttled_try(key, ok)
+        code = code.replace(" ", "").replace("-", "") if isinstance(code, str) else ""
+        return self._throttled_try(RECOVERY_LOCK, pin_delay_after, lambda: RECOVERY_PATTERN.match(code) is not None
+                                   and self._secret_matches("teacher_recovery", code, "recovery code"))
 
     def reset_pin(self, recovery_code: str, new_pin: str) -> str:
         """Replace a forgotten PIN: the recovery code must match; returns the next
@@ -239,3 +356,10 @@ class TeacherGate:
             wait = f"; try again in {math.ceil(check.wait_s)} s" if check.wait_s > 0 else ""
             raise StorageError(f"recovery code: wrong code{wait}")
         return self._set_pin_records(new_pin)
+
+
+def _json_or_none(raw: str) -> object:
+    try:
+        return json.loads(raw)
+    except ValueError:
+        return None
