@@ -197,3 +197,27 @@ def test_ply_is_readable(tmp_path):
     cloud = trimesh.load(path)
     assert np.allclose(cloud.vertices, pts, atol=1e-6)
     assert np.array_equal(np.asarray(cloud.colors)[:, 0], [10, 128, 250])
+
+
+def test_commands_name_bad_input(tmp_path, capsys):
+    from app.cli import main
+
+    out = str(tmp_path / "p.json")
+    assert main(["calibrate", "projector", "--graycode", str(tmp_path), "--out", out]) == 1
+    assert "--projector-size WxH is required" in capsys.readouterr().err
+    assert main(["calibrate", "projector", "--graycode", str(tmp_path / "none"), "--projector-size", "100x60",
+                 "--out", out]) == 1
+    assert "none: Gray-code capture folder not found" in capsys.readouterr().err
+    (tmp_path / "pose_00").mkdir()
+    assert main(["calibrate", "projector", "--graycode", str(tmp_path), "--projector-size", "100x60", "--out", out]) == 1
+    assert "pose_00: 0 images" in capsys.readouterr().err
+    assert main(["calibrate", "projector", "--graycode", str(tmp_path), "--projector-size", "100", "--out", out]) == 1
+    assert "must look like 1024x768" in capsys.readouterr().err
+    cam = SyntheticCamera(Board(DEFAULT_BOARD_SPEC), supersample=1)
+    calibration = _truth_calibration(cam).save(tmp_path / "projector.json")
+    assert main(["scan", "--graycode", str(tmp_path / "pose_00"), "--calibration", str(calibration),
+                 "--out", str(tmp_path / "s.ply")]) == 1
+    assert "pose_00: 0 images, but a 1024x768 projector's" in capsys.readouterr().err
+    assert main(["scan", "--graycode", str(tmp_path / "pose_00"), "--calibration", str(tmp_path / "nope.json"),
+                 "--out", str(tmp_path / "s.ply")]) == 1
+    assert "nope.json: file not found" in capsys.readouterr().err
