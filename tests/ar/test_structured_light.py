@@ -221,3 +221,14 @@ def test_commands_name_bad_input(tmp_path, capsys):
     assert main(["scan", "--graycode", str(tmp_path / "pose_00"), "--calibration", str(tmp_path / "nope.json"),
                  "--out", str(tmp_path / "s.ply")]) == 1
     assert "nope.json: file not found" in capsys.readouterr().err
+
+
+def test_faint_light_is_explained_with_the_threshold_to_lower(small_capture):
+    from ar.structured_light.calibrate import pose_corners
+
+    _cam, _scene, _T, frames = small_capture
+    faint = [(f.astype(np.float32) * 0.25).astype(np.uint8) for f in frames]  # a quarter of the light
+    decoded = decode_images(faint, SMALL_PROJECTOR)
+    reason = pose_corners(decoded, Board(DEFAULT_BOARD_SPEC))
+    assert isinstance(reason, str) and "lower --black-threshold" in reason
+    assert decode_images(faint, SMALL_PROJECTOR, black_threshold=5, white_threshold=1).mask.mean() > 0.05
