@@ -232,3 +232,15 @@ def test_faint_light_is_explained_with_the_threshold_to_lower(small_capture):
     reason = pose_corners(decoded, Board(DEFAULT_BOARD_SPEC))
     assert isinstance(reason, str) and "lower --black-threshold" in reason
     assert decode_images(faint, SMALL_PROJECTOR, black_threshold=5, white_threshold=1).mask.mean() > 0.05
+
+
+def test_pose_folder_reads_unpadded_names_in_number_order(tmp_path):
+    """``2.png`` comes before ``10.png``: decoding the projector's own patterns saved as
+    ``0.png`` .. ``27.png`` is the identity (in plain name order it would not be)."""
+    seq = graycode_sequence(SMALL_PROJECTOR)
+    seq[-1] = np.full_like(seq[-1], 10)
+    for i, im in enumerate(seq):
+        cv2.imwrite(str(tmp_path / f"{i}.png"), im)
+    d = decode_pose_folder(tmp_path, SMALL_PROJECTOR)
+    ys, xs = np.mgrid[0:SMALL_PROJECTOR[1], 0:SMALL_PROJECTOR[0]]
+    assert d.mask.all() and np.array_equal(d.col, xs) and np.array_equal(d.row, ys)
