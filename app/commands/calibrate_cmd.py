@@ -169,7 +169,9 @@ def run_projector_graycode(args: argparse.Namespace, board) -> int:
         cam = SyntheticCamera(board, projector=projector)
         box = default_scan_box(board)
         scene = GrayCodeScene(cam, [box])
-        poses = graycode_poses(board, cam.proj_from_cam, args.poses) + [scan_view(board, box, cam.proj_from_cam)]
+        poses = graycode_poses(board, cam.proj_from_cam, args.poses)
+        fov = (projector.width / projector.K[0, 0], projector.height / projector.K[1, 1])
+        poses.append(scan_view(board, box, cam.proj_from_cam, fov))
         from ar.synthetic import Degradation  # deferred: as above
 
         degradation = (Degradation(noise_sigma=2.0, blur_sigma=0.8, exposure=0.35, shot_noise=0.5)

@@ -246,14 +246,21 @@ class ProjectedSceneSource(CameraSource):
         return self.scene.render_sequence(self.T_cam_from_board, [self._shown], self.degradation, self._rng)[0]
 
 
-def scan_view(board: Board, box: Box, proj_from_cam: np.ndarray, distance_m: float = 0.5,
-              tilt_deg: float = 20.0) -> np.ndarray:
-    """``T_cam_from_board`` of a scan: the projector aims between the board's centre and
-    the box's, from ``distance_m``, tilted ``tilt_deg`` toward the board's -y side, so
-    board and box are both lit and seen."""
-    aim = np.array([(board.centre[0] + (box.x0 + box.x1) / 2) / 2, (board.centre[1] + (box.y0 + box.y1) / 2) / 2, 0.0])
+def scan_view(board: Board, box: Box, proj_from_cam: np.ndarray, projector_fov: tuple[float, float] = (0.79, 0.59),
+              distance_m: float = 0.5, tilt_deg: float = 20.0, fill: float = 0.85) -> np.ndarray:
+    """``T_cam_from_board`` of a scan: the projector aims at the centre of the box and the
+    printed sheet together, tilted ``tilt_deg`` toward the board's -y side, from
+    ``distance_m`` or farther -- as far as it takes for both to fill at most ``fill`` of the
+    projector's view (``projector_fov``: its width and height over distance; image up is
+    the board's -x) -- so the whole board is seen and lit beside the box."""
+    sw, sh = board.sheet_size_m
+    m = board.margin_m
+    x0, x1 = min(-m, box.x0), max(sw - m, box.x1)
+    y0, y1 = min(-m, box.y0), max(sh - m, box.y1)
+    aim = np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0])
+    d = max(distance_m, (x1 - x0) / (fill * projector_fov[1]), (y1 - y0) / (fill * projector_fov[0]))
     t = np.radians(tilt_deg)
-    eye = aim + distance_m * np.array([0.0, -np.sin(t), -np.cos(t)])
+    eye = aim + d * np.array([0.0, -np.sin(t), -np.cos(t)])
     return invert(proj_from_cam) @ look_at(eye, aim, np.array([-1.0, 0.0, 0.0]))
 
 
