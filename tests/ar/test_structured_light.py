@@ -244,3 +244,21 @@ def test_pose_folder_reads_unpadded_names_in_number_order(tmp_path):
     d = decode_pose_folder(tmp_path, SMALL_PROJECTOR)
     ys, xs = np.mgrid[0:SMALL_PROJECTOR[1], 0:SMALL_PROJECTOR[0]]
     assert d.mask.all() and np.array_equal(d.col, xs) and np.array_equal(d.row, ys)
+
+
+@pytest.mark.parametrize("spec", [DEFAULT_BOARD_SPEC, "checker:9x6:0.025", "grid:4x5:0.04:0.01:DICT_4X4_50"])
+def test_scan_view_sees_and_lights_the_whole_board_and_the_box(spec):
+    from ar.geometry import project_points
+    from ar.structured_light.synthetic import default_scan_box, scan_view
+
+    board = Board(spec)
+    cam = SyntheticCamera(board, supersample=1)
+    box = default_scan_box(board)
+    T = scan_view(board, box, cam.proj_from_cam)
+    w, h = board.sheet_size_m
+    m = board.margin_m
+    corners = np.array([[-m, -m, 0], [w - m, -m, 0], [w - m, h - m, 0], [-m, h - m, 0],
+                        [box.x0, box.y0, -box.height], [box.x1, box.y1, -box.height]])
+    for model, T_dev in ((cam.camera, T), (cam.projector, cam.proj_from_cam @ T)):
+        px = project_points(corners, T_dev, model.K, model.dist)
+        assert np.all(px >= 0) and np.all(px[:, 0] < model.width) and np.all(px[:, 1] < model.height), spec
