@@ -156,15 +156,20 @@ class GrayCodeScene:
 
 
 def graycode_poses(board: Board, proj_from_cam: np.ndarray, n_poses: int = 5, distance_m: float = 0.5,
-                   seed: int = 3) -> list[np.ndarray]:
+                   seed: int = 3, spread_m: float = 0.05) -> list[np.ndarray]:
     """``T_cam_from_board`` for a Gray-code calibration: the *projector* looks at the board's
     centre from ``distance_m`` (so its light covers the board), tilted 15-40 degrees toward
     directions spread around the board and rolled differently -- the varied views that
-    separate focal length from distance -- and the camera rides along, rigidly."""
+    separate focal length from distance -- and the camera rides along, rigidly.
+    ``spread_m`` aims each pose that far beside the centre, in turn around it, so the
+    board's corners reach different parts of both images (the lens models are then fitted
+    over more of the image than its middle)."""
     rng = np.random.default_rng(seed)
-    c = board.centre
+    centre = board.centre
     poses = []
     for i in range(n_poses):
+        phi = 2 * np.pi * i / n_poses + np.pi / 4
+        c = centre + spread_m * np.array([np.cos(phi), np.sin(phi), 0.0])
         az = 2 * np.pi * (i + 0.5) / n_poses + rng.uniform(-0.25, 0.25)
         tilt = np.radians(15 + 25 * ((i * 0.618) % 1.0))
         d = distance_m * rng.uniform(0.9, 1.1)
