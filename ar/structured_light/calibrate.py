@@ -75,6 +75,8 @@ def local_homography_corners(decoded: DecodedPose, corners: np.ndarray, camera: 
     """Projector pixel of each camera ``corners`` (N,2) by a local homography (module
     docstring); returns ``(projector_px (N,2), ok (N,) bool)``."""
     h, w = decoded.mask.shape
+    # the projector's extent as decoded (a corner mapped outside the codes seen is refused)
+    pw, ph = (int(decoded.col.max()) + 1, int(decoded.row.max()) + 1) if decoded.mask.any() else (0, 0)
     out = np.full((len(corners), 2), np.nan)
     ok = np.zeros(len(corners), bool)
     for i, (cx, cy) in enumerate(np.asarray(corners, np.float64)):
@@ -100,7 +102,6 @@ def local_homography_corners(decoded: DecodedPose, corners: np.ndarray, camera: 
         if abs(p[2]) < 1e-12:
             continue
         p = p[:2] / p[2]
-        pw, ph = decoded.col.max() + 1, decoded.row.max() + 1
         if np.all(np.isfinite(p)) and -0.5 <= p[0] <= pw - 0.5 and -0.5 <= p[1] <= ph - 0.5:
             out[i], ok[i] = p, True
     return out, ok
