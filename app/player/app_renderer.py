@@ -158,7 +158,8 @@ class AppRenderer:
                 # the rig's camera went away mid-show: keep the show going on the synthetic rig
                 log.warning("live rig failed, projector stage switches to the synthetic rig: %s", exc)
                 self._stage.close()
-                self._stage = StageRenderer(rig=SyntheticRig(self._stage.board), draw=self.draw)
+                self._stage = StageRenderer(rig=SyntheticRig(self._stage.board), draw=self.draw,
+                                            height_map=self._stage.height_map)  # the table keeps its scan
                 return self._stage.render(job.scene, t, job.view)
         if self._preview is None:
             self._preview = ScenePreviewRenderer()

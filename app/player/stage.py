@@ -115,7 +115,8 @@ class StageRenderer:
         ``fps``: the animation's frame rate; ``rig_fps``: how often the rig is sampled
         (one call of :meth:`render` = one rig frame; default ``fps``); ``camera``: the
         camera source :func:`open_rig` tries when no ``rig`` is given; ``height_map``: the
-        scanned table (default: ``table.npz`` in ``profile_dir`` when there is one)."""
+        scanned table (default: ``table.npz`` in ``profile_dir``, followed while the stage
+        runs: a new scan is used from the next frame, a deleted one dropped)."""
         self.board = Board(DEFAULT_BOARD_SPEC)
         self.fps = fps
         self.rig_fps = rig_fps or fps
@@ -128,17 +129,15 @@ class StageRenderer:
         self.draw = draw
         self._pyrender = None  # made on the first frame drawn with draw="pyrender"
         self.problems: list[str] = []
-        if height_map is None and profile_dir is not None and (Path(profile_dir) / HEIGHT_MAP_FILE).is_file():
-            try:
-                height_map = HeightMap.load(Path(profile_dir) / HEIGHT_MAP_FILE)
-            except StoryBeamError as exc:  # the stage plays on the bare table; the teacher can scan again
-                log.warning("scanned table not used: %s", exc)
-        self.height_map = height_map
-        ground = scene_ground(height_map, self.board) if height_map is not None else None
         self.animator = SceneAnimator.from_library(motions_dir or MOTIONS_DIR, fps=fps,
                                                    character_height_m=STAGE_CHARACTER_HEIGHT_M,
-                                                   placement=STAGE_PLACEMENT, ground=ground)
-        self._key: str | None = None
+                                                   placement=STAGE_PLACEMENT)
+        self.height_map: HeightMap | None = None
+        #: the profile's scan, followed while the stage runs (a new scan replaces it)
+        self._scan_file = None if height_map is not None or profile_dir is None else Path(profile_dir) / HEIGHT_MAP_FILE
+        self._scan_stamp: tuple | None = None
+        self.set_height_map(height_map)
+        self._follow_scan()
         self._cast: list = []  # (design, (F, P, 4, 4) part poses) per character on stage
         self._hips_tracks: list = []
         self._light: ProjectedLight | None = None  # what the projector showed last (None: nothing yet)
@@ -150,8 +149,36 @@ class StageRenderer:
     def __call__(self, scene: Scene, t: float, view: str = "projector") -> StageFrame:
         return self.render(scene, t, view)
 
+    def set_height_map(self, height_map: HeightMap | None) -> None:
+        """Play on ``height_map`` from now on (None: the bare table); the cast is re-laid."""
+        self.height_map = height_map
+        self.animator.ground = scene_ground(height_map, self.board) if height_map is not None else None
+        self._key = None
+
+    def _follow_scan(self) -> None:
+        """Load the profile's ``table.npz`` when it appears or changes (the teacher scanned
+        again), drop it when it is deleted; an unreadable one is reported and not used."""
+        if self._scan_file is None:
+            return
+        try:
+            st = self._scan_file.stat()
+            stamp = (st.st_mtime_ns, st.st_size)
+        except OSError:
+            stamp = None
+        if stamp == self._scan_stamp:
+            return
+        self._scan_stamp = stamp
+        height_map = None
+        if stamp is not None:
+            try:
+                height_map = HeightMap.load(self._scan_file)
+            except StoryBeamError as exc:  # the stage plays on the bare table; the teacher can scan again
+                log.warning("scanned table not used: %s", exc)
+        self.set_height_map(height_map)
+
     def prepare(self, scene: Scene) -> None:
         """Put ``scene``'s characters on stage (no-op if it is already there)."""
+        self._follow_scan()
         key = json.dumps(scene.to_dict(), sort_keys=True)
         if key == self._key:
             return

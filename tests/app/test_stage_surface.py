@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from app.player.stage import StageRenderer
-from app.story.model import Character, MotionChoice
+from app.story.model import Character, MotionChoice, Scene
 from app.services.table_scan import SYNTHETIC_BOXES, scan_captures, synthetic_scan
 from ar import DEFAULT_BOARD_SPEC, HEIGHT_MAP_FILE, Board, HeightMap
 from ar.rig import SyntheticRig
@@ -29,8 +29,7 @@ _X0, _Y0, _X1, _Y1, _H = SYNTHETIC_BOXES[0]
 BOX = (_X0, _X1, _Y0, _Y1, _H)  # board frame: x0, x1, y0, y1, height (m)
 PATH = PATHS["pencil case 45 mm"]  # the stage's miniature lays it along board x = 0.185, over the box
 
-pytestmark = [pytest.mark.slow,
-              pytest.mark.skipif(not (LIBRARY / "labels.csv").is_file(), reason="bundled motion library absent")]
+pytestmark = pytest.mark.skipif(not (LIBRARY / "labels.csv").is_file(), reason="bundled motion library absent")
 
 
 @pytest.fixture(scope="module")
@@ -46,6 +45,7 @@ def _landing_errors(stage: StageRenderer, rig: SyntheticRig, character: Characte
     return got["errors"], got["heights"]
 
 
+@pytest.mark.slow
 def test_feet_land_on_the_scanned_box_top_within_3_mm(tmp_path, scan):
     scan.save(tmp_path / HEIGHT_MAP_FILE)
     character = Character(kind="robot", path=PATH, motion=MotionChoice("walk"))
@@ -75,6 +75,7 @@ def test_feet_land_on_the_scanned_box_top_within_3_mm(tmp_path, scan):
     assert np.median(bare_errors) > 0.01
 
 
+@pytest.mark.slow
 def test_the_path_over_the_box_jumps_at_its_edges(scan):
     stage = StageRenderer(rig=SyntheticRig(), draw=None, height_map=scan)
     try:
@@ -91,3 +92,28 @@ def test_the_path_over_the_box_jumps_at_its_edges(scan):
     for edge in (BOX[2], BOX[3]):
         near = np.abs(y - edge) < 0.03
         assert lift[near].max() > BOX[4] + 0.01
+
+
+def test_the_stage_follows_the_profile_scan_as_the_teacher_rescans(tmp_path, caplog):
+    """A scan written while the stage runs is used from the next frame; a deleted one is
+    dropped; an unreadable one is reported and the stage plays on the bare table."""
+    stage = StageRenderer(rig=SyntheticRig(), profile_dir=tmp_path, draw=None)
+    empty = Scene()
+    try:
+        assert stage.height_map is None and stage.animator.ground is None
+        HeightMap.flat((0.0, 0.2, 0.0, 0.28), height=0.03).save(tmp_path / HEIGHT_MAP_FILE)
+        stage.prepare(empty)
+        assert stage.height_map is not None
+        assert stage.animator.ground(np.array([0.0]), np.array([0.0]))[0] == pytest.approx(0.03)  # board centre
+        (tmp_path / HEIGHT_MAP_FILE).write_bytes(b"not a scan at all")
+        stage.prepare(empty)
+        assert stage.height_map is None and stage.animator.ground is None
+        assert "table.npz" in caplog.text and "scanned table not used" in caplog.text
+        HeightMap.flat((0.0, 0.2, 0.0, 0.28), height=0.01).save(tmp_path / HEIGHT_MAP_FILE)
+        stage.prepare(empty)
+        assert stage.animator.ground(np.array([0.0]), np.array([0.0]))[0] == pytest.approx(0.01)
+        (tmp_path / HEIGHT_MAP_FILE).unlink()
+        stage.prepare(empty)
+        assert stage.height_map is None
+    finally:
+        stage.close()

@@ -158,3 +158,18 @@ def test_bad_points_are_refused():
         HeightMap.from_points(np.array([[0, 0, 0], [100.0, 0, 0]]), cell_m=0.002)
     with pytest.raises(HeightMapError, match="extent"):
         HeightMap.flat((0.1, 0.0, 0.0, 0.1))
+
+
+def test_scene_ground_reads_the_map_at_the_board_point_under_the_scene_point():
+    from ar import DEFAULT_BOARD_SPEC, Board
+    from ar.scene import board_to_scene_points, scene_ground
+
+    board = Board(DEFAULT_BOARD_SPEC)
+    hm = HeightMap.from_points(scan_points([BOX], (0.0, 0.25, 0.0, 0.15), outliers=0.0))
+    ground = scene_ground(hm, board)
+    on_box, beside = board_to_scene_points(np.array([[0.13, 0.07, 0.0], [0.05, 0.07, 0.0]]), board)
+    # scene (X, Z) = board (x, y) minus the board centre; the scene's Y is the height
+    assert ground(on_box[0], on_box[2]) == pytest.approx(BOX[4], abs=0.001)
+    assert ground(beside[0], beside[2]) == pytest.approx(0.0, abs=0.001)
+    far = ground(np.array([5.0]), np.array([5.0]))
+    assert far.tolist() == [0.0]  # off the scan: the table
