@@ -16,7 +16,9 @@ names below from ``ar``):
 * :mod:`ar.live` -- tracking on its own threads (newest frame wins, dropped frames counted);
 * :mod:`ar.rig` -- the rig's one frame loop (``RigTracker.step``: region detection, pose,
   filter, projector pose -> ``RigState``) and the rigs that feed it: ``SyntheticRig``
-  (no rig attached) and ``LiveRig`` (a camera and calibration files), ``open_rig``.
+  (no rig attached) and ``LiveRig`` (a camera and calibration files), ``open_rig``;
+* :mod:`ar.structured_light` -- Gray-code projector-camera calibration and table scanning
+  (imported by its own path: ``storybeam calibrate projector --graycode``, ``storybeam scan``).
 
 Needs OpenCV and numpy only. Rendering (pyrender, trimesh, OpenGL) lives in the
 subpackage :mod:`ar.render`, which is *not* imported here, so ``import ar`` works where

@@ -19,7 +19,7 @@ b=Board(DEFAULT_BOARD_SPEC)
 FL = {"k3": cv2.CALIB_FIX_K3, "k3+tan": cv2.CALIB_FIX_K3|cv2.CALIB_ZERO_TANGENT_DIST, "k3k2+tan": cv2.CALIB_FIX_K3|cv2.CALIB_FIX_K2|cv2.CALIB_ZERO_TANGENT_DIST}
 for size in ((512,384),(1024,768)):
   pr=default_projector().scaled(*size); cam=SyntheticCamera(b,projector=pr); sc=GrayCodeScene(cam)
-  poses=graycode_poses(b,cam.proj_from_cam,8)
+  poses=graycode_poses(b,cam.proj_from_cam,8,spread_m=0.0)
   dec=[decode_images(sc.capture_graycode(T,seed=i),pr.size,name=str(i)) for i,T in enumerate(poses)]
   for n in (4,5,6,8):
     for k,f in FL.items():

@@ -44,6 +44,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     proj.add_argument("--truth", type=Path, default=None,
                       help="--graycode: truth.json of synthetic captures; print the errors against it "
                            "(--synthetic does so by itself)")
+    proj.add_argument("--conditions", choices=("clean", "dim"), default="clean",
+                      help="--graycode --synthetic: clean (noise 1 grey level) or dim (a third of the light, "
+                           "noise 2, shot noise, 0.8 px blur)")
     proj.add_argument("--poses", type=int, default=5, help="--graycode --synthetic: board poses to render (default 5), "
                                                                      "then one scan pose (board and a 30 mm box)")
     proj.add_argument("--camera", type=Path, help="camera.json (with --synthetic: optional, else calibrated first)")
@@ -166,8 +169,14 @@ def run_projector_graycode(args: argparse.Namespace, board) -> int:
         cam = SyntheticCamera(board, projector=projector)
         box = default_scan_box(board)
         scene = GrayCodeScene(cam, [box])
-        poses = graycode_poses(board, cam.proj_from_cam, args.poses) + [scan_view(board, box, cam.proj_from_cam)]
-        write_graycode_captures(args.graycode, scene, poses, progress=print, scan_pose=len(poses) - 1)
+        poses = graycode_poses(board, cam.proj_from_cam, args.poses)
+        fov = (projector.width / projector.K[0, 0], projector.height / projector.K[1, 1])
+        poses.append(scan_view(board, box, cam.proj_from_cam, fov))
+        from ar.synthetic import Degradation  # deferred: as above
+
+        degradation = (Degradation(noise_sigma=2.0, blur_sigma=0.8, exposure=0.35, shot_noise=0.5)
+                       if args.conditions == "dim" else None)
+        write_graycode_captures(args.graycode, scene, poses, degradation, progress=print, scan_pose=len(poses) - 1)
         size, truth_path = projector.size, truth_path or args.graycode / "truth.json"
         print(f"synthetic captures written to {args.graycode}")
     elif not args.projector_size:

@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"{len(scan.points)} points -> {args.out}")
     report = {"pose": decoded.name, "calibration": str(args.calibration), "ply": str(args.out), **scan.summary()}
     if scan.height_map is None:
-        print("board not found in the white capture: no height map (the points are in the camera frame)")
+        print(scan.note)
     else:
         hm_path = args.height_map or args.out.with_suffix(".heights.npz")
         scan.height_map.save(hm_path)

@@ -5,7 +5,8 @@
 * :mod:`app.services.thumbnails` -- stick-figure thumbnails of clips, made on a
   background thread;
 * :mod:`app.services.calibration_wizard` -- the teacher's camera calibration as steps the
-  UI runs one at a time (board, capture, solve, save, scan the table), done by ``ar``;
+  UI runs one at a time (board, capture, solve, save, scan the table), done by ``ar``,
+  and its Gray-code mode for the projector (``GrayCodeWizard``);
 * :mod:`app.services.table_scan` -- *Scan the table*: the Gray-code sequence projected and
   captured, scanned into a height map stored beside the calibration (``table.npz``);
 * :mod:`app.services.act_it_out` -- "Act it out": a camera take tracked into body
@@ -38,7 +39,7 @@ from app.services.act_it_out import (
     judge_poses,
     set_act_it_out_allowed,
 )
-from app.services.calibration_wizard import CalibrationStep, CalibrationWizard
+from app.services.calibration_wizard import CalibrationStep, CalibrationWizard, GrayCodeWizard
 from app.services.catalog import ClipInfo, MotionCatalog
 from app.services.recording import (
     RECORD_RATE,
@@ -66,7 +67,7 @@ __all__ = [
     "MotionCatalog", "ClipInfo",
     "ThumbnailCache", "StickFrames", "stick_frames", "clip_stick_frames", "library_files", "BONES", "HEAD",
     "VIEW_YAW_DEG",
-    "CalibrationWizard", "CalibrationStep", "BackgroundLoad",
+    "CalibrationWizard", "CalibrationStep", "GrayCodeWizard", "BackgroundLoad",
     "ActItOut", "ActItOutError", "ActLibrary", "TakeVerdict", "judge_poses", "act_it_out_allowed",
     "set_act_it_out_allowed", "ACT_SETTING", "STEP_BACK", "LIFT_HEAD", "NO_BODY", "SKELETON_BONES",
     "ChunkRecorder", "ChunkSource", "ArraySource", "RecordingError", "RECORD_RATE", "find_recorder", "discard_stale",

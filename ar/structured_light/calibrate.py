@@ -75,6 +75,8 @@ def local_homography_corners(decoded: DecodedPose, corners: np.ndarray, camera: 
     """Projector pixel of each camera ``corners`` (N,2) by a local homography (module
     docstring); returns ``(projector_px (N,2), ok (N,) bool)``."""
     h, w = decoded.mask.shape
+    # the projector's extent as decoded (a corner mapped outside the codes seen is refused)
+    pw, ph = (int(decoded.col.max()) + 1, int(decoded.row.max()) + 1) if decoded.mask.any() else (0, 0)
     out = np.full((len(corners), 2), np.nan)
     ok = np.zeros(len(corners), bool)
     for i, (cx, cy) in enumerate(np.asarray(corners, np.float64)):
@@ -100,7 +102,6 @@ def local_homography_corners(decoded: DecodedPose, corners: np.ndarray, camera: 
         if abs(p[2]) < 1e-12:
             continue
         p = p[:2] / p[2]
-        pw, ph = decoded.col.max() + 1, decoded.row.max() + 1
         if np.all(np.isfinite(p)) and -0.5 <= p[0] <= pw - 0.5 and -0.5 <= p[1] <= ph - 0.5:
             out[i], ok[i] = p, True
     return out, ok
@@ -115,9 +116,19 @@ def find_board(decoded: DecodedPose, board: Board):
     return None
 
 
+def faint_light_reason(decoded: DecodedPose) -> str:
+    """Why (almost) nothing decoded, with the figure that says which threshold to lower."""
+    gain = np.percentile(decoded.white.astype(np.int16) - decoded.black.astype(np.int16), 90)
+    return (f"only {100 * decoded.mask.mean():.1f} % of pixels decoded: the brightest tenth of the image gains "
+            f"{gain:.0f} grey levels when the projector turns white -- a dim projector or a bright room; "
+            f"lower --black-threshold below that (and --white-threshold if needed)")
+
+
 def pose_corners(decoded: DecodedPose, board: Board, camera: CameraCalibration | None = None,
                  window: int = DEFAULT_WINDOW_PX) -> PoseCorners | str:
     """One pose's board corners with their projector pixels, or the reason the pose is unusable."""
+    if decoded.mask.mean() < 0.01:
+        return faint_light_reason(decoded)
     det = find_board(decoded, board)
     if det is None:
         return "board not found in the white (or black) capture"
@@ -229,6 +240,9 @@ def calibrate_graycode(poses: Sequence[DecodedPose], board: Board, projector_siz
         else:
             views.append(found)
             say(f"pose {p.name}: {len(found.object_points)} of {found.board_points_seen} corners in projector light")
+    if len(views) < 3:
+        reasons = "; ".join(f"{name}: {why}" for name, why in rejected.items())
+        raise CalibrationError(f"only {len(views)} usable poses, at least 3 are needed ({reasons})")
     names = [v.name for v in views]
     prms, Kp, dp, _errors, rej, keep = calibrate_from_correspondences(
         names, [v.object_points for v in views], [v.projector_pixels for v in views], projector_size,

@@ -18,6 +18,7 @@ Python call per pixel.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -99,12 +100,20 @@ def decode_images(images: Sequence[np.ndarray], projector_size: tuple[int, int],
     return DecodedPose(name, col, row, mask, white, black, lit)
 
 
+def natural_key(name: str) -> list:
+    """Sort key reading runs of digits as numbers: ``2.png`` before ``10.png`` (zero-padded
+    names sort as they do by plain name order)."""
+    return [(0, int(part), part) if part.isdigit() else (1, 0, part) for part in re.split(r"(\d+)", name) if part]
+
+
 def pose_image_files(folder: str | Path, projector_size: tuple[int, int]) -> list[Path]:
-    """A pose folder's image files in name order, checked against the sequence length."""
+    """A pose folder's image files in name order (digits read as numbers, so ``2.png``
+    comes before ``10.png``), checked against the sequence length."""
     folder = Path(folder)
     if not folder.is_dir():
         raise CalibrationError("pose folder not found", folder)
-    files = sorted(f for f in folder.iterdir() if f.is_file() and f.suffix.lower() in IMAGE_SUFFIXES)
+    files = sorted((f for f in folder.iterdir() if f.is_file() and f.suffix.lower() in IMAGE_SUFFIXES),
+                   key=lambda f: natural_key(f.name))
     layout = GrayCodeLayout(*projector_size)
     if len(files) != layout.n_images:
         raise CalibrationError(f"{len(files)} images, but a {layout.width}x{layout.height} projector's Gray-code sequence "

@@ -133,10 +133,13 @@ class Scan:
     board_points: int = 0
     heights: np.ndarray | None = None  # (N,) metres above the board plane
     height_map: HeightMap | None = None
+    note: str = ""  # why there is no height map, when there is none
 
     def summary(self) -> dict:
         out = {"points": int(len(self.points)), "board_seen": self.T_cam_from_board is not None,
                "board_plane_rms_mm": self.board_plane_rms_mm, "board_points": self.board_points}
+        if self.note:
+            out["note"] = self.note
         if self.height_map is not None:
             hm = self.height_map
             out["height_map"] = {"rows": hm.shape[0], "cols": hm.shape[1], "cell_mm": hm.cell_m * 1000,
@@ -162,6 +165,7 @@ def scan_pose(decoded: DecodedPose, calib: GrayCodeCalibration, board: Board | N
     det = find_board(decoded, board)
     est = None if det is None else solve_board_pose(det, calib.camera.camera_matrix, calib.camera.dist_coeffs)
     if est is None:
+        scan.note = "board not found in the white capture: no height map (the points are in the camera frame)"
         return scan
     hull = cv2.convexHull(det.image_points.astype(np.float32)).reshape(-1, 2)
     region = np.zeros(decoded.mask.shape, np.uint8)
@@ -170,6 +174,9 @@ def scan_pose(decoded: DecodedPose, calib: GrayCodeCalibration, board: Board | N
     px = scan.pixels.astype(np.int64)
     inside = region[px[:, 1], px[:, 0]].astype(bool)
     if inside.sum() < 50:
+        scan.note = (f"only {int(inside.sum())} decoded points on the board (50 needed for its plane): "
+                     f"no height map; if the light is faint, lower --black-threshold / --white-threshold")
+        scan.T_cam_from_board = est.T_cam_from_board
         return scan
     n, d, keep = fit_plane(scan.points[inside])
     dist = scan.points[inside][keep] @ n - d

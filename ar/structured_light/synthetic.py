@@ -156,15 +156,20 @@ class GrayCodeScene:
 
 
 def graycode_poses(board: Board, proj_from_cam: np.ndarray, n_poses: int = 5, distance_m: float = 0.5,
-                   seed: int = 3) -> list[np.ndarray]:
+                   seed: int = 3, spread_m: float = 0.05) -> list[np.ndarray]:
     """``T_cam_from_board`` for a Gray-code calibration: the *projector* looks at the board's
     centre from ``distance_m`` (so its light covers the board), tilted 15-40 degrees toward
     directions spread around the board and rolled differently -- the varied views that
-    separate focal length from distance -- and the camera rides along, rigidly."""
+    separate focal length from distance -- and the camera rides along, rigidly.
+    ``spread_m`` aims each pose that far beside the centre, in turn around it, so the
+    board's corners reach different parts of both images (the lens models are then fitted
+    over more of the image than its middle)."""
     rng = np.random.default_rng(seed)
-    c = board.centre
+    centre = board.centre
     poses = []
     for i in range(n_poses):
+        phi = 2 * np.pi * i / n_poses + np.pi / 4
+        c = centre + spread_m * np.array([np.cos(phi), np.sin(phi), 0.0])
         az = 2 * np.pi * (i + 0.5) / n_poses + rng.uniform(-0.25, 0.25)
         tilt = np.radians(15 + 25 * ((i * 0.618) % 1.0))
         d = distance_m * rng.uniform(0.9, 1.1)
@@ -246,14 +251,21 @@ class ProjectedSceneSource(CameraSource):
         return self.scene.render_sequence(self.T_cam_from_board, [self._shown], self.degradation, self._rng)[0]
 
 
-def scan_view(board: Board, box: Box, proj_from_cam: np.ndarray, distance_m: float = 0.5,
-              tilt_deg: float = 20.0) -> np.ndarray:
-    """``T_cam_from_board`` of a scan: the projector aims between the board's centre and
-    the box's, from ``distance_m``, tilted ``tilt_deg`` toward the board's -y side, so
-    board and box are both lit and seen."""
-    aim = np.array([(board.centre[0] + (box.x0 + box.x1) / 2) / 2, (board.centre[1] + (box.y0 + box.y1) / 2) / 2, 0.0])
+def scan_view(board: Board, box: Box, proj_from_cam: np.ndarray, projector_fov: tuple[float, float] = (0.79, 0.59),
+              distance_m: float = 0.5, tilt_deg: float = 20.0, fill: float = 0.85) -> np.ndarray:
+    """``T_cam_from_board`` of a scan: the projector aims at the centre of the box and the
+    printed sheet together, tilted ``tilt_deg`` toward the board's -y side, from
+    ``distance_m`` or farther -- as far as it takes for both to fill at most ``fill`` of the
+    projector's view (``projector_fov``: its width and height over distance; image up is
+    the board's -x) -- so the whole board is seen and lit beside the box."""
+    sw, sh = board.sheet_size_m
+    m = board.margin_m
+    x0, x1 = min(-m, box.x0), max(sw - m, box.x1)
+    y0, y1 = min(-m, box.y0), max(sh - m, box.y1)
+    aim = np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.0])
+    d = max(distance_m, (x1 - x0) / (fill * projector_fov[1]), (y1 - y0) / (fill * projector_fov[0]))
     t = np.radians(tilt_deg)
-    eye = aim + distance_m * np.array([0.0, -np.sin(t), -np.cos(t)])
+    eye = aim + d * np.array([0.0, -np.sin(t), -np.cos(t)])
     return invert(proj_from_cam) @ look_at(eye, aim, np.array([-1.0, 0.0, 0.0]))
 
 

@@ -197,3 +197,68 @@ def test_ply_is_readable(tmp_path):
     cloud = trimesh.load(path)
     assert np.allclose(cloud.vertices, pts, atol=1e-6)
     assert np.array_equal(np.asarray(cloud.colors)[:, 0], [10, 128, 250])
+
+
+def test_commands_name_bad_input(tmp_path, capsys):
+    from app.cli import main
+
+    out = str(tmp_path / "p.json")
+    assert main(["calibrate", "projector", "--graycode", str(tmp_path), "--out", out]) == 1
+    assert "--projector-size WxH is required" in capsys.readouterr().err
+    assert main(["calibrate", "projector", "--graycode", str(tmp_path / "none"), "--projector-size", "100x60",
+                 "--out", out]) == 1
+    assert "none: Gray-code capture folder not found" in capsys.readouterr().err
+    (tmp_path / "pose_00").mkdir()
+    assert main(["calibrate", "projector", "--graycode", str(tmp_path), "--projector-size", "100x60", "--out", out]) == 1
+    assert "pose_00: 0 images" in capsys.readouterr().err
+    assert main(["calibrate", "projector", "--graycode", str(tmp_path), "--projector-size", "100", "--out", out]) == 1
+    assert "must look like 1024x768" in capsys.readouterr().err
+    cam = SyntheticCamera(Board(DEFAULT_BOARD_SPEC), supersample=1)
+    calibration = _truth_calibration(cam).save(tmp_path / "projector.json")
+    assert main(["scan", "--graycode", str(tmp_path / "pose_00"), "--calibration", str(calibration),
+                 "--out", str(tmp_path / "s.ply")]) == 1
+    assert "pose_00: 0 images, but a 1024x768 projector's" in capsys.readouterr().err
+    assert main(["scan", "--graycode", str(tmp_path / "pose_00"), "--calibration", str(tmp_path / "nope.json"),
+                 "--out", str(tmp_path / "s.ply")]) == 1
+    assert "nope.json: file not found" in capsys.readouterr().err
+
+
+def test_faint_light_is_explained_with_the_threshold_to_lower(small_capture):
+    from ar.structured_light.calibrate import pose_corners
+
+    _cam, _scene, _T, frames = small_capture
+    faint = [(f.astype(np.float32) * 0.25).astype(np.uint8) for f in frames]  # a quarter of the light
+    decoded = decode_images(faint, SMALL_PROJECTOR)
+    reason = pose_corners(decoded, Board(DEFAULT_BOARD_SPEC))
+    assert isinstance(reason, str) and "lower --black-threshold" in reason
+    assert decode_images(faint, SMALL_PROJECTOR, black_threshold=5, white_threshold=1).mask.mean() > 0.05
+
+
+def test_pose_folder_reads_unpadded_names_in_number_order(tmp_path):
+    """``2.png`` comes before ``10.png``: decoding the projector's own patterns saved as
+    ``0.png`` .. ``27.png`` is the identity (in plain name order it would not be)."""
+    seq = graycode_sequence(SMALL_PROJECTOR)
+    seq[-1] = np.full_like(seq[-1], 10)
+    for i, im in enumerate(seq):
+        cv2.imwrite(str(tmp_path / f"{i}.png"), im)
+    d = decode_pose_folder(tmp_path, SMALL_PROJECTOR)
+    ys, xs = np.mgrid[0:SMALL_PROJECTOR[1], 0:SMALL_PROJECTOR[0]]
+    assert d.mask.all() and np.array_equal(d.col, xs) and np.array_equal(d.row, ys)
+
+
+@pytest.mark.parametrize("spec", [DEFAULT_BOARD_SPEC, "checker:9x6:0.025", "grid:4x5:0.04:0.01:DICT_4X4_50"])
+def test_scan_view_sees_and_lights_the_whole_board_and_the_box(spec):
+    from ar.geometry import project_points
+    from ar.structured_light.synthetic import default_scan_box, scan_view
+
+    board = Board(spec)
+    cam = SyntheticCamera(board, supersample=1)
+    box = default_scan_box(board)
+    T = scan_view(board, box, cam.proj_from_cam)
+    w, h = board.sheet_size_m
+    m = board.margin_m
+    corners = np.array([[-m, -m, 0], [w - m, -m, 0], [w - m, h - m, 0], [-m, h - m, 0],
+                        [box.x0, box.y0, -box.height], [box.x1, box.y1, -box.height]])
+    for model, T_dev in ((cam.camera, T), (cam.projector, cam.proj_from_cam @ T)):
+        px = project_points(corners, T_dev, model.K, model.dist)
+        assert np.all(px >= 0) and np.all(px[:, 0] < model.width) and np.all(px[:, 1] < model.height), spec
