@@ -26,7 +26,7 @@ from kivy.uix.textinput import TextInput
 from kivy.uix.widget import Widget
 
 from app.player.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice
-from app.services import CalibrationWizard, act_it_out_allowed, set_act_it_out_allowed
+from app.services import CalibrationWizard, GrayCodeWizard, act_it_out_allowed, set_act_it_out_allowed
 from app.story import RECOVERY_CODE_DIGITS, GrownUpQuestion, StorageError, valid_pin
 from app.ui.import_picker import ImportPicker
 from app.ui.narration import RECORDING_SETTING, recording_allowed
@@ -43,7 +43,17 @@ _STEP_TEXT = {
     "save": {"en": "4. Save", "ja": "4. ほぞん"},
     "scan": {"en": "5. Scan the table: put the boxes on it, hold the rig still",
              "ja": "5. つくえを スキャン: はこを おいて、リグを うごかさない"},
+    # the Gray-code wizard (a real rig: the projector shows the patterns, the camera films them)
+    "graycode_pose": {"en": "2.{n} Put the board in a new place in the light, hold the rig still, tap Next",
+                      "ja": "2.{n} ボードを ひかりの べつの ばしょに おき、リグを うごかさずに つぎへ"},
 }
+
+
+def step_text(key: str, lang: str) -> str:
+    """The wizard step's explanation (a Gray-code pose: its number)."""
+    if key.startswith("graycode_pose_"):
+        return _STEP_TEXT["graycode_pose"][lang].format(n=key.rsplit("_", 1)[1])
+    return _STEP_TEXT[key][lang]
 
 
 #: Digits the pad takes in each mode.
@@ -541,6 +551,28 @@ def rig_scan_capture(app):
     return capture
 
 
+def calibration_wizard(app, open_source=None) -> CalibrationWizard:
+    """The wizard this rig can run. A real rig -- the rig's camera is a device and the
+    projector window opens on a second display -- gets the Gray-code wizard
+    (:class:`app.services.GrayCodeWizard`): each pose, the projector shows the Gray-code
+    sequence, the camera films it, and the camera, the projector and their pose are
+    calibrated from it, then the table is scanned. Otherwise (no second display, a
+    recording, the tablet's Kivy camera) the camera-only wizard on the synthetic views.
+    ``open_source(choice)``: opens the camera (default :func:`ar.open_camera_source`)."""
+    choice = str(getattr(app.renderer_factory, "camera", "") or "")
+    window = app.open_projector_window() if choice.isdigit() else None
+    if window is None:
+        return CalibrationWizard(Path(app.profile_dir), scan_capture=rig_scan_capture(app))
+    if open_source is None:
+        from ar import open_camera_source  # deferred: OpenCV, when the teacher calibrates
+
+        def open_source(choice):
+            return open_camera_source(choice, paced=False)
+    _, _, width, height = window.display
+    return GrayCodeWizard(Path(app.profile_dir), show=window.show, camera=open_source(choice),
+                          projector_size=(int(width), int(height)))
+
+
 class CalibrationScreen(Screen):
     """Step-by-step calibration; each step runs on a worker thread."""
 
@@ -549,8 +581,14 @@ class CalibrationScreen(Screen):
         if not app.teacher_unlocked:
             Clock.schedule_once(lambda dt: app.go("pin"), 0)
             return
-        self.wizard = CalibrationWizard(Path(app.profile_dir), scan_capture=rig_scan_capture(app))
+        self.wizard = calibration_wizard(app)
         self.refresh()
+
+    def on_leave(self, *args):
+        camera = getattr(getattr(self, "wizard", None), "camera", None)
+        if camera is not None:  # the Gray-code wizard's camera: free it for the rig
+            camera.close()
+            self.wizard.camera = None
 
     def refresh(self) -> None:
         app = App.get_running_app()
@@ -565,7 +603,7 @@ class CalibrationScreen(Screen):
         bar.add_widget(big_label(t("calib_intro"), 24, size_hint_y=1))
         root.add_widget(bar)
         for i, step in enumerate(self.wizard.steps):
-            text = _STEP_TEXT[step.key][app.lang]
+            text = step_text(step.key, app.lang)
             if step.result:
                 text += f"  ✓ {step.result}"
             if step.error:

@@ -69,3 +69,27 @@ def test_graycode_wizard_keeps_the_error_when_the_board_is_out_of_view(tmp_path)
 def cam_model_small():
     from ar.synthetic import default_camera
     return default_camera().scaled(160, 120)
+
+
+def test_the_teacher_screen_runs_the_gray_code_wizard_on_a_real_rig(tmp_path):
+    """A rig whose camera is a device and whose projector window opens gets the Gray-code
+    wizard, showing on that window and filming through that camera; any other set-up the
+    camera-only wizard (there is no light to project with)."""
+    from types import SimpleNamespace
+
+    from app.services import CalibrationWizard, GrayCodeWizard
+    from app.ui.teacher import calibration_wizard
+
+    shown, opened = [], []
+    window = SimpleNamespace(display=(1920, 0, 1280, 800), show=shown.append)
+
+    def app_with(camera, window):
+        return SimpleNamespace(renderer_factory=SimpleNamespace(camera=camera), profile_dir=tmp_path,
+                               open_projector_window=lambda: window)
+
+    wizard = calibration_wizard(app_with("0", window), open_source=lambda choice: opened.append(choice) or "cam")
+    assert isinstance(wizard, GrayCodeWizard) and wizard.projector_size == (1280, 800)
+    assert wizard.show == shown.append and wizard.camera == "cam" and opened == ["0"]
+    for camera, win in (("0", None), ("kivy:1", window), ("session.mp4", window)):
+        plain = calibration_wizard(app_with(camera, win), open_source=lambda c: pytest.fail("no camera to open"))
+        assert type(plain) is CalibrationWizard
