@@ -260,7 +260,8 @@ class Board:
         upsampled ``upsample`` times (default: twice when the searched image is narrower than
         :data:`RESCUE_UPSAMPLE_BELOW_PX`; bicubic) so small markers' bit cells can be read,
         and searched with wider detector settings (:func:`_rescue_params`; ChArUco: the
-        board's missing markers looked for again where the found ones put them). A ChArUco
+        board's missing markers looked for again where the found ones put them; checker:
+        OpenCV's quad-based ``findChessboardCorners`` instead of the sector-based one). A ChArUco
         view with fewer than six corners keeps its markers' corners as extra points (ids from
         :data:`MARKER_CORNER_ID_BASE`). Points come back in the frame's pixels.
         """
@@ -286,8 +287,12 @@ class Board:
         if kind == "checker":
             # CALIB_CB_ACCURACY costs ~4x the time and was less accurate on the bench than
             # a cornerSubPix pass with a window scaled to the square size
-            flags = cv2.CALIB_CB_NORMALIZE_IMAGE | (cv2.CALIB_CB_EXHAUSTIVE if rescue else 0)
-            found, corners = cv2.findChessboardCornersSB(gray, (self.spec.cols, self.spec.rows), flags=flags)
+            size = (self.spec.cols, self.spec.rows)
+            if rescue:  # the quad-based detector: it finds some boards SB misses, and fails fast
+                found, corners = cv2.findChessboardCorners(gray, size, flags=cv2.CALIB_CB_ADAPTIVE_THRESH
+                                                           | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK)
+            else:
+                found, corners = cv2.findChessboardCornersSB(gray, size, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)
             if not found or corners is None or len(corners) != total:
                 return None
             grid = corners.reshape(self.spec.rows, self.spec.cols, 2)
