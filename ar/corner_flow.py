@@ -15,7 +15,9 @@ through those frames:
    backward track misses its start by more than ``max_fb_px`` (the forward-backward check,
    Kalal et al., ICPR 2010) or that leaves the image is dropped. Corners of squares (ChArUco,
    checker) are then snapped onto the new frame's X-corner (``cornerSubPix``), so the points
-   cannot drift along an edge frame after frame;
+   cannot drift along an edge frame after frame; the board's corners the followed pose
+   puts in the image and that are not followed yet (uncovered again as a hand moves off)
+   join the followed points when they snap onto an X-corner, as at anchoring;
 3. **pose**: ``cv2.solvePnP`` (iterative, from the previous pose as the guess) on the
    followed points; points whose reprojection error exceeds ``max_point_px`` (and three
    times the median) are dropped and the pose solved again;
@@ -176,11 +178,9 @@ class CornerFlow:
         estimate = self._solve(img, obj, ids)
         if estimate is None:
             return None
-        self._gray = gray
-        self._img = estimate.detection.image_points.astype(np.float32)
-        self._obj, self._ids = estimate.detection.object_points, estimate.detection.ids
-        self._T = estimate.T_cam_from_board.copy()
-        self._followed += 1
+        followed = self._followed + 1
+        self.anchor(gray, estimate)  # corners uncovered again (a hand moving off) join from this pose
+        self._followed = followed
         return estimate
 
     def _solve(self, img: np.ndarray, obj: np.ndarray, ids: np.ndarray) -> PoseEstimate | None:
