@@ -166,15 +166,17 @@ class RigTracker:
 
     def __init__(self, board: Board, K: np.ndarray, dist: np.ndarray, T_proj_from_cam: np.ndarray | None = None,
                  estimator: RegionPoseEstimator | None = None, tracker: PoseTracker | None = None,
-                 lit_radius_squares: float = LIT_RADIUS_SQUARES, flow: FlowParams | None | bool = None):
+                 lit_radius_squares: float = LIT_RADIUS_SQUARES, flow: FlowParams | None | bool = None,
+                 rescue: bool = True):
         """``T_proj_from_cam``: the rig's extrinsics (None: no projector pose);
         ``estimator`` / ``tracker``: the detector and the filter (defaults: the product's);
         ``lit_radius_squares``: how near a corner light may fall (:data:`LIT_RADIUS_SQUARES`);
-        ``flow``: the corner follower's settings (None: the defaults; False: detection only)."""
+        ``flow``: the corner follower's settings (None: the defaults; False: detection only);
+        ``rescue``: the default detector's rescue pass for dim, small and blurred boards."""
         self.board = board
         self.lit_radius_m = lit_radius_squares * board.spec.square_m
         self.T_proj_from_cam = None if T_proj_from_cam is None else np.asarray(T_proj_from_cam, np.float64)
-        self.estimator = estimator or RegionPoseEstimator(board, K, dist)
+        self.estimator = estimator or RegionPoseEstimator(board, K, dist, rescue=rescue)
         self.tracker = tracker or PoseTracker()
         self.flow = None if flow is False else CornerFlow(board, K, dist, flow if isinstance(flow, FlowParams) else None)
         self.found_counts = {"detected": 0, "followed": 0, "lost": 0}

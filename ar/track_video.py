@@ -97,10 +97,11 @@ def _median(values: list[float]) -> float | None:
 
 def track_recording(source: CameraSource, board: Board, camera: CameraCalibration | None = None,
                     plain: bool = False, limit: int | None = None,
-                    progress: Callable[[int], None] | None = None) -> dict:
+                    progress: Callable[[int], None] | None = None, follow: bool = True, rescue: bool = True) -> dict:
     """Step the rig's loop over ``source`` (module docstring); ``camera``: its calibration (None:
     :func:`default_camera_for` the frame size; a calibration made at another size is scaled).
-    ``limit``: at most that many frames. Returns the report (``frames``, ``summary``,
+    ``limit``: at most that many frames; ``follow`` / ``rescue``: the rig's corner following and
+    rescue detection pass (off only to measure what each brings). Returns the report (``frames``, ``summary``,
     ``camera``); raises :class:`ar.camera_sources.CameraSourceError` when no frame can be read."""
     first = source.read()
     if first is None:
@@ -116,7 +117,7 @@ def track_recording(source: CameraSource, board: Board, camera: CameraCalibratio
             model = model.scaled(w, h)
         cam_info = {"assumed": False, "calibrated_size": list(camera.image_size)}
     cam_info.update(size=[w, h], K=np.round(model.K, 3).tolist(), dist=np.asarray(model.dist).ravel().tolist())
-    rig = RigTracker(board, model.K, model.dist)
+    rig = RigTracker(board, model.K, model.dist, flow=None if follow else False, rescue=rescue)
     plain_count = plain_detector(board) if plain else None
     frames: list[dict] = []
     frame = first
@@ -141,6 +142,7 @@ def track_recording(source: CameraSource, board: Board, camera: CameraCalibratio
             progress(1)
         frame = source.read()
     return {"source": source.name, "board": str(board.spec), "fps": source.fps, "camera": cam_info,
+            "follow": follow, "rescue": rescue,
             "summary": summarise(frames), "frames": frames}
 
 

@@ -24,6 +24,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--limit", type=int, default=None, help="track at most this many frames")
     p.add_argument("--compare-plain", action="store_true",
                    help="also run OpenCV's plain detector (default settings) on every frame, side by side")
+    p.add_argument("--no-follow", action="store_true",
+                   help="do not follow the corners between detections (to measure what following brings)")
+    p.add_argument("--no-rescue", action="store_true",
+                   help="no rescue detection pass for dim, small, blurred boards (to measure what it brings)")
     p.set_defaults(func=run)
 
 
@@ -47,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         with tqdm(total=total, unit="frame", desc=f"track {Path(args.video).name}") as bar:
             report = track_recording(source, board, camera, plain=args.compare_plain, limit=args.limit,
-                                     progress=bar.update)
+                                     progress=bar.update, follow=not args.no_follow, rescue=not args.no_rescue)
     finally:
         source.close()
     cam = report["camera"]

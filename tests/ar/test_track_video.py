@@ -109,6 +109,10 @@ def test_the_track_command(clip, tmp_path, capsys):
     assert len(report["frames"]) == 12 and report["summary"]["followed_rate"] == pytest.approx(0.25)
     assert main(["track", "--video", str(folder), "--board", DEFAULT_BOARD_SPEC, "--limit", "2"]) == 0
     assert "camera assumed" in capsys.readouterr().out
+    assert main(["track", "--video", str(folder), "--board", DEFAULT_BOARD_SPEC, "--camera", str(tmp_path / "camera.json"),
+                 "--no-follow", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert not report["follow"] and report["summary"]["lost_rate"] == pytest.approx(0.25)
 
 
 def test_the_track_command_names_what_is_wrong(tmp_path, capsys):
