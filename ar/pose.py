@@ -143,7 +143,7 @@ class RegionPoseEstimator:
     the region: the same detector, then on a crop. When both miss, the rescue pass
     (contrast normalisation, upsampling, wider detector settings:
     :meth:`ar.boards.Board.detect_enhanced`) searches the region (or the whole frame) once
-    more. ``counts`` records which path each frame took (``region``, ``full``,
+    more (upsampled when the markers are small). ``counts`` records which path each frame took (``region``, ``full``,
     ``fallback`` = region missed then full frame, ``rescued`` = found by the rescue pass,
     ``lost``), ``last_path`` the latest frame's.
     """
@@ -155,6 +155,9 @@ class RegionPoseEstimator:
         rescue pass for dim, small and blurred boards (:meth:`ar.boards.Board.detect_enhanced`)."""
         self.board = board
         self.rescue = rescue
+        #: the rescue pass upsamples the region twice when the markers were smaller than this (px)
+        self.rescue_upsample_below_px = 16.0
+        self._plan: tuple[tuple[int, int, int, int], int] | None = None
         self.K = np.asarray(K, np.float64)
         self.dist = np.asarray(dist, np.float64).ravel()
         self.margin_px = margin_px
@@ -188,23 +191,23 @@ class RegionPoseEstimator:
             return None
         scale = 1
         if self.board.spec.kind != "checker":
-            s = self.board.spec
-            edges = np.linalg.norm(np.roll(q, -1, 0) - q, axis=1)  # top, right, bottom, left
-            square_px = min(edges[0] / s.cols, edges[2] / s.cols, edges[1] / s.rows, edges[3] / s.rows)
-            marker_px = square_px * (s.marker_m / s.square_m if s.kind == "charuco" else 1.0)
+            marker_px = self._marker_px(q)
             while scale < self.max_scale and marker_px / (scale + 1) >= self.min_marker_px:
                 scale += 1
         return box, scale
 
-    def estimate(self, image: np.ndarray,
-                 select: Callable[[BoardDetection], BoardDetection] | None = None) -> PoseEstimate | None:
+    def estimate(self, image: np.ndarray, select: Callable[[BoardDetection], BoardDetection] | None = None,
+                 rescue: bool | None = None) -> PoseEstimate | None:
         """This frame's pose (``None`` when the board is not found anywhere).
 
         ``select``: applied to each detection before its pose is solved (the rig leaves out
-        the corners its own projector lit, :class:`ar.rig.ProjectedLight`); None keeps all."""
+        the corners its own projector lit, :class:`ar.rig.ProjectedLight`); None keeps all.
+        ``rescue``: whether the rescue pass runs when the region and the whole frame miss
+        (default: the estimator's ``rescue``); the rig defers it while it follows the
+        board's corners and runs it with :meth:`rescue_pass` when following fails."""
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         h, w = gray.shape[:2]
-        plan = self.predicted_region((w, h))
+        plan = self._plan = self.predicted_region((w, h))
         estimate = None
         if plan is not None:
             box, scale = plan
@@ -214,14 +217,47 @@ class RegionPoseEstimator:
             path = "full"
         if estimate is None:
             estimate = self._solve(self.board.detect(gray), select)
-        if estimate is None and self.rescue:
-            estimate = self._solve(self.board.detect_enhanced(gray, None if plan is None else plan[0]), select)
+        if estimate is None and (self.rescue if rescue is None else rescue):
+            estimate = self._rescue(gray, select)
             path = "rescued"
         if estimate is None:
             self.counts["lost"] += 1
             self.last_path = "lost"
             self._gap += 1
             return None
+        return self._found(path, estimate)
+
+    def rescue_pass(self, image: np.ndarray,
+                    select: Callable[[BoardDetection], BoardDetection] | None = None) -> PoseEstimate | None:
+        """The rescue pass alone, on the frame :meth:`estimate` has just missed (its region as then):
+        a pose found now counts that frame as ``rescued`` instead of ``lost``."""
+        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        estimate = self._rescue(gray, select)
+        if estimate is None:
+            return None
+        self.counts["lost"] -= 1
+        return self._found("rescued", estimate)
+
+    def _rescue(self, gray: np.ndarray, select) -> PoseEstimate | None:
+        """:meth:`ar.boards.Board.detect_enhanced` on the predicted region (else the whole frame),
+        upsampled when the last pose's markers were under ``rescue_upsample_below_px``."""
+        plan = self._plan
+        if plan is None:
+            return self._solve(self.board.detect_enhanced(gray), select)
+        up = 2 if self._marker_px(self._last_px) < self.rescue_upsample_below_px else 1
+        return self._solve(self.board.detect_enhanced(gray, plan[0], up), select)
+
+    def _marker_px(self, quad: np.ndarray) -> float:
+        """Side of a marker (checker: a square) in pixels, from the pattern's projected outline."""
+        s = self.board.spec
+        edges = np.linalg.norm(np.roll(quad, -1, 0) - quad, axis=1)  # top, right, bottom, left
+        if s.kind == "checker":
+            return float(min(edges[0] / (s.cols + 1), edges[2] / (s.cols + 1), edges[1] / (s.rows + 1),
+                             edges[3] / (s.rows + 1)))
+        square_px = min(edges[0] / s.cols, edges[2] / s.cols, edges[1] / s.rows, edges[3] / s.rows)
+        return float(square_px * (s.marker_m / s.square_m if s.kind == "charuco" else 1.0))
+
+    def _found(self, path: str, estimate: PoseEstimate) -> PoseEstimate:
         self.last_path = path
         self.counts[path] += 1
         self.observe(estimate.T_cam_from_board)

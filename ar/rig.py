@@ -14,11 +14,13 @@ tracker's thread, :class:`ar.live.LiveTracker`); :meth:`RigTracker.step` is it:
    the fit's reprojection error and sinks the pose's confidence under the tracker's
    threshold. Corners are kept all when fewer than :data:`ar.pose.MIN_POINTS` would be left;
 3. **board pose** (IPPE + Levenberg-Marquardt, :func:`ar.pose.solve_board_pose`);
-   when the detector (and its rescue pass for dim, small and blurred boards) found
-   nothing, the pose is **followed**: the corners of the last detection are followed into
+   when the detector found nothing, the pose is **followed**: the corners of the last detection are followed into
    this frame by pyramidal Lucas-Kanade and posed by solvePnP (:class:`ar.corner_flow.CornerFlow`,
    re-anchored by every detection, refused when its points drift or the pose jumps), and
-   the region search goes on from that pose. :attr:`RigState.found_by` says which:
+   the region search goes on from that pose. The detector's rescue pass for dim, small
+   and blurred boards (:meth:`ar.boards.Board.detect_enhanced`) runs when nothing is being
+   followed, when following fails, and on every :data:`RESCUE_EVERY`-th followed frame
+   (a find re-anchors the follower). :attr:`RigState.found_by` says which:
    ``detected``, ``followed`` or ``lost``;
 4. **filter and tracking state** (:class:`ar.filtering.PoseTracker`: Kalman filter,
    tracking / holding / lost), driven by the *frame's* timestamp, never the wall clock;
@@ -74,6 +76,9 @@ LIT_THRESHOLD = 20
 #: 8 mm from a corner of a 40 mm square moved it by 8 px); half a square also covers the
 #: hand's motion between the frame the light was drawn for and the frame that films it
 LIT_RADIUS_SQUARES = 0.5
+#: while the board's corners are followed, the detector's rescue pass runs on every this-many-th
+#: frame (and whenever following fails): following costs a few ms, the rescue pass several times that
+RESCUE_EVERY = 4
 
 
 @dataclass
@@ -206,17 +211,25 @@ class RigTracker:
                                   detection.ids[keep], detection.total_points)
 
         t0 = time.perf_counter()
-        estimate = self.estimator.estimate(image, unlit if light is not None else None)
+        select = unlit if light is not None else None
+        # while the corners can be followed, the (costly) rescue pass waits for following to fail,
+        # except on every RESCUE_EVERY-th followed frame, which it re-anchors when it finds the board
+        defer = (self.flow is not None and self.flow.active
+                 and self.flow.frames_followed % RESCUE_EVERY != RESCUE_EVERY - 1)
+        estimate = self.estimator.estimate(image, select, rescue=False if defer else None)
         found_by = "detected" if estimate is not None else "lost"
         if self.flow is not None:
             gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-            if estimate is not None:
-                self.flow.anchor(gray, estimate)
-            else:
+            if estimate is None:
                 estimate = self.flow.follow(gray)
                 if estimate is not None:
                     found_by = "followed"
                     self.estimator.observe(estimate.T_cam_from_board)
+                elif defer and self.estimator.rescue:
+                    estimate = self.estimator.rescue_pass(image, select)
+                    found_by = "detected" if estimate is not None else "lost"
+            if found_by == "detected":
+                self.flow.anchor(gray, estimate)
         self.found_counts[found_by] += 1
         output = self.tracker.update(estimate, timestamp_s)
         T_proj = (self.T_proj_from_cam @ output.T_cam_from_board
@@ -364,5 +377,5 @@ def open_rig(profile_dir: Path | None, board: Board, fps: float = 30.0,
     return SyntheticRig(board, fps=fps)
 
 
-__all__ = ["RIG_SIZE", "LIT_THRESHOLD", "LIT_RADIUS_SQUARES", "ProjectedLight", "RigState", "RigTracker", "SyntheticRig",
+__all__ = ["RIG_SIZE", "LIT_THRESHOLD", "LIT_RADIUS_SQUARES", "RESCUE_EVERY", "ProjectedLight", "RigState", "RigTracker", "SyntheticRig",
            "LiveRig", "open_rig"]
