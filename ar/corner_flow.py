@@ -11,7 +11,8 @@ through those frames:
    ``max_snap_px`` of the projection -- a corner hidden by a hand or off the board's
    paper does not snap and is left out), with this grey frame;
 2. **follow** (a frame the detector missed): every point is followed into the new frame by
-   pyramidal Lucas-Kanade (``cv2.calcOpticalFlowPyrLK``) and back again; a point whose
+   pyramidal Lucas-Kanade (``cv2.calcOpticalFlowPyrLK``), starting where the board's motion
+   over the last two frames puts it (constant velocity), and back again; a point whose
    backward track misses its start by more than ``max_fb_px`` (the forward-backward check,
    Kalal et al., ICPR 2010) or that leaves the image is dropped. Corners of squares (ChArUco,
    checker) are then snapped onto the new frame's X-corner (``cornerSubPix``), so the points
@@ -25,8 +26,11 @@ through those frames:
    frame as lost -- when fewer than :data:`ar.pose.MIN_POINTS` points survive, the RMS
    reprojection error exceeds ``max_rms_px``, the pose jumps from the previous frame's by
    more than ``max_jump_deg`` / ``max_jump_m`` (a pose solved from slipped points flips or
-   leaps; a hand does not move that far in one frame), or the points have been followed
-   ``max_frames`` frames without a detection.
+   leaps; a hand does not move that far in one frame), the points landed more than
+   ``max_surprise_squares`` of a square from where the motion put them (a board's corners
+   repeat every square: followed that far from the guess, each may have slipped onto its
+   neighbour, all alike, and a wrong pose would fit them well), or the points have been
+   followed ``max_frames`` frames without a detection.
 
 The rig's loop (:meth:`ar.rig.RigTracker.step`) detects first and follows only when the
 detector found nothing, so a followed pose is always at most ``max_frames`` frames from a
@@ -41,7 +45,7 @@ import cv2
 import numpy as np
 
 from ar.boards import Board, BoardDetection
-from ar.geometry import from_rvec_tvec, project_points
+from ar.geometry import from_rvec_tvec, invert, project_points
 from ar.pose import MIN_POINTS, PoseEstimate, pose_estimate, reprojection_residuals
 
 
@@ -58,6 +62,7 @@ class FlowParams:
     max_jump_deg: float = 8.0  # rotation between two consecutive frames' poses above which it is refused
     max_jump_m: float = 0.04  # translation likewise
     max_frames: int = 150  # frames followed without a detection (5 s at 30 fps)
+    max_surprise_squares: float = 0.5  # median distance from the motion's guess, in squares
 
 
 class CornerFlow:
@@ -83,6 +88,7 @@ class CornerFlow:
         self._obj = np.zeros((0, 3))
         self._ids = np.zeros(0, np.int64)
         self._T: np.ndarray | None = None
+        self._velocity = np.eye(4)  # T_now @ inv(T_before) of the last two consecutive frames
         self._followed = 0
 
     @property
@@ -107,9 +113,11 @@ class CornerFlow:
                 img = np.vstack([img, extra[0]])
                 obj = np.vstack([obj, extra[1]])
                 ids = np.concatenate([ids, extra[2]])
+        T = estimate.T_cam_from_board
+        self._velocity = T @ invert(self._T) if self._T is not None else np.eye(4)
         self._gray = gray
         self._img, self._obj, self._ids = img.reshape(-1, 2).astype(np.float32), obj, ids
-        self._T = estimate.T_cam_from_board.copy()
+        self._T = T.copy()
         self._followed = 0
 
     def _snapped_board_corners(self, gray: np.ndarray, T: np.ndarray, known: set):
@@ -130,12 +138,13 @@ class CornerFlow:
             return None
         return snapped[ok], all_obj[missing[ok]], missing[ok]
 
+    def _square_px(self, T: np.ndarray) -> float:
+        """About how many pixels a square of the board spans at pose ``T``."""
+        return float(self.K[0, 0] * self.board.spec.square_m / max(float(T[2, 3]), 1e-6))
+
     def _snap_half_window(self, px: np.ndarray, T: np.ndarray) -> int:
         """cornerSubPix half-window: a quarter of a square's size in the image, 2 to 5 px."""
-        s = self.board.spec.square_m
-        depth = float(T[2, 3])
-        square_px = self.K[0, 0] * s / max(depth, 1e-6)
-        return int(np.clip(square_px * 0.25, 2, 5))
+        return int(np.clip(self._square_px(T) * 0.25, 2, 5))
 
     def _snap(self, gray: np.ndarray, px: np.ndarray, half: int) -> np.ndarray:
         crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.01)
@@ -154,16 +163,27 @@ class CornerFlow:
         h, w = gray.shape[:2]
         crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01)
         p0 = self._img.reshape(-1, 1, 2)
-        p1, st, _ = cv2.calcOpticalFlowPyrLK(self._gray, gray, p0, None, winSize=(p.win_px, p.win_px),
-                                             maxLevel=p.levels, criteria=crit)
-        back, st_b, _ = cv2.calcOpticalFlowPyrLK(gray, self._gray, p1, None, winSize=(p.win_px, p.win_px),
-                                                 maxLevel=p.levels, criteria=crit)
-        p1, back = p1.reshape(-1, 2), back.reshape(-1, 2)
+        guess = project_points(self._obj, self._velocity @ self._T, self.K, self.dist).reshape(-1, 2)
+        guess = np.where(np.isfinite(guess).all(1, keepdims=True), guess, self._img).astype(np.float32)
+        flags = cv2.OPTFLOW_USE_INITIAL_FLOW
+        p1, st, _ = cv2.calcOpticalFlowPyrLK(self._gray, gray, p0, guess.reshape(-1, 1, 2).copy(),
+                                             winSize=(p.win_px, p.win_px), maxLevel=p.levels, criteria=crit,
+                                             flags=flags)
+        p1 = p1.reshape(-1, 2)
+        back_guess = (p1 + (self._img - guess)).astype(np.float32).reshape(-1, 1, 2)  # the guessed motion, undone
+        back, st_b, _ = cv2.calcOpticalFlowPyrLK(gray, self._gray, p1.reshape(-1, 1, 2).astype(np.float32),
+                                                 back_guess, winSize=(p.win_px, p.win_px), maxLevel=p.levels,
+                                                 criteria=crit, flags=flags)
+        back = back.reshape(-1, 2)
         fb = np.linalg.norm(back - self._img, axis=1)
         keep = (st.ravel() == 1) & (st_b.ravel() == 1) & (fb <= p.max_fb_px) & np.isfinite(p1).all(1)
         keep &= np.all((p1 >= 2) & (p1 < np.array([w, h]) - 3), axis=1)
         if keep.sum() < MIN_POINTS:
             return self._refuse(f"{int(keep.sum())} points passed the forward-backward check")
+        square_px = self._square_px(self._T)
+        surprise = float(np.median(np.linalg.norm(p1[keep] - guess[keep], axis=1)))
+        if surprise > p.max_surprise_squares * square_px:
+            return self._refuse(f"points {surprise:.1f} px from the motion's guess (a square is {square_px:.1f} px)")
         img, obj, ids = p1[keep], self._obj[keep], self._ids[keep]
         if self.snaps:
             corner = ids < len(self.board.all_object_points)  # square corners, not marker corners

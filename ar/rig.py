@@ -230,6 +230,8 @@ class RigTracker:
                     found_by = "detected" if estimate is not None else "lost"
             if found_by == "detected":
                 self.flow.anchor(gray, estimate)
+            elif found_by == "lost":
+                self.flow.reset()  # no motion is carried across a gap
         self.found_counts[found_by] += 1
         output = self.tracker.update(estimate, timestamp_s)
         T_proj = (self.T_proj_from_cam @ output.T_cam_from_board
