@@ -197,14 +197,15 @@ class RegionPoseEstimator:
         return box, scale
 
     def estimate(self, image: np.ndarray, select: Callable[[BoardDetection], BoardDetection] | None = None,
-                 rescue: bool | None = None) -> PoseEstimate | None:
+                 rescue: bool | None = None, whole: bool = True) -> PoseEstimate | None:
         """This frame's pose (``None`` when the board is not found anywhere).
 
         ``select``: applied to each detection before its pose is solved (the rig leaves out
         the corners its own projector lit, :class:`ar.rig.ProjectedLight`); None keeps all.
         ``rescue``: whether the rescue pass runs when the region and the whole frame miss
-        (default: the estimator's ``rescue``); the rig defers it while it follows the
-        board's corners and runs it with :meth:`rescue_pass` when following fails."""
+        (default: the estimator's ``rescue``); ``whole``: whether the whole frame is searched
+        when the region misses. The rig defers both while it follows the board's corners
+        (the region follows the board) and runs them with :meth:`retry` when following fails."""
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         h, w = gray.shape[:2]
         plan = self._plan = self.predicted_region((w, h))
@@ -215,7 +216,7 @@ class RegionPoseEstimator:
             path = "region" if estimate is not None else "fallback"
         else:
             path = "full"
-        if estimate is None:
+        if estimate is None and (whole or plan is None):
             estimate = self._solve(self.board.detect(gray), select)
         if estimate is None and (self.rescue if rescue is None else rescue):
             estimate = self._rescue(gray, select)
@@ -227,16 +228,21 @@ class RegionPoseEstimator:
             return None
         return self._found(path, estimate)
 
-    def rescue_pass(self, image: np.ndarray,
-                    select: Callable[[BoardDetection], BoardDetection] | None = None) -> PoseEstimate | None:
-        """The rescue pass alone, on the frame :meth:`estimate` has just missed (its region as then):
-        a pose found now counts that frame as ``rescued`` instead of ``lost``."""
+    def retry(self, image: np.ndarray, select: Callable[[BoardDetection], BoardDetection] | None = None,
+              whole: bool = True) -> PoseEstimate | None:
+        """What :meth:`estimate` left out on the frame it has just missed: the whole frame
+        (``whole``, when a region was searched) and the rescue pass (if the estimator has it); a
+        pose found now counts that frame as ``fallback`` or ``rescued`` instead of ``lost``."""
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        estimate = self._rescue(gray, select)
+        estimate, path = None, "fallback"
+        if whole and self._plan is not None:
+            estimate = self._solve(self.board.detect(gray), select)
+        if estimate is None and self.rescue:
+            estimate, path = self._rescue(gray, select), "rescued"
         if estimate is None:
             return None
         self.counts["lost"] -= 1
-        return self._found("rescued", estimate)
+        return self._found(path, estimate)
 
     def _rescue(self, gray: np.ndarray, select) -> PoseEstimate | None:
         """:meth:`ar.boards.Board.detect_enhanced` on the predicted region (else the whole frame),

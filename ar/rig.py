@@ -17,10 +17,10 @@ tracker's thread, :class:`ar.live.LiveTracker`); :meth:`RigTracker.step` is it:
    when the detector found nothing, the pose is **followed**: the corners of the last detection are followed into
    this frame by pyramidal Lucas-Kanade and posed by solvePnP (:class:`ar.corner_flow.CornerFlow`,
    re-anchored by every detection, refused when its points drift or the pose jumps), and
-   the region search goes on from that pose. The detector's rescue pass for dim, small
-   and blurred boards (:meth:`ar.boards.Board.detect_enhanced`) runs when nothing is being
-   followed, when following fails, and on every :data:`RESCUE_EVERY`-th followed frame
-   (a find re-anchors the follower). :attr:`RigState.found_by` says which:
+   the region search goes on from that pose. The whole-frame search and the detector's
+   rescue pass for dim, small and blurred boards (:meth:`ar.boards.Board.detect_enhanced`)
+   run when nothing is being followed, when following fails, and on every
+   :data:`RESCUE_EVERY`-th followed frame (a find re-anchors the follower). :attr:`RigState.found_by` says which:
    ``detected``, ``followed`` or ``lost``;
 4. **filter and tracking state** (:class:`ar.filtering.PoseTracker`: Kalman filter,
    tracking / holding / lost), driven by the *frame's* timestamp, never the wall clock;
@@ -212,11 +212,12 @@ class RigTracker:
 
         t0 = time.perf_counter()
         select = unlit if light is not None else None
-        # while the corners can be followed, the (costly) rescue pass waits for following to fail,
-        # except on every RESCUE_EVERY-th followed frame, which it re-anchors when it finds the board
+        # while the corners can be followed, the whole-frame search and the (costly) rescue pass wait
+        # for following to fail, except on every RESCUE_EVERY-th followed frame (a find re-anchors)
         defer = (self.flow is not None and self.flow.active
                  and self.flow.frames_followed % RESCUE_EVERY != RESCUE_EVERY - 1)
-        estimate = self.estimator.estimate(image, select, rescue=False if defer else None)
+        estimate = (self.estimator.estimate(image, select, rescue=False, whole=False) if defer
+                    else self.estimator.estimate(image, select))
         found_by = "detected" if estimate is not None else "lost"
         if self.flow is not None:
             gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
@@ -225,8 +226,8 @@ class RigTracker:
                 if estimate is not None:
                     found_by = "followed"
                     self.estimator.observe(estimate.T_cam_from_board)
-                elif defer and self.estimator.rescue:
-                    estimate = self.estimator.rescue_pass(image, select)
+                elif defer:
+                    estimate = self.estimator.retry(image, select)
                     found_by = "detected" if estimate is not None else "lost"
             if found_by == "detected":
                 self.flow.anchor(gray, estimate)
