@@ -191,3 +191,32 @@ def test_marker_corners_stand_in_where_few_charuco_corners_are_found(board, scen
     est = solve_board_pose(found, camera.K, camera.dist)
     rot_deg, trans_mm = pose_error(est.T_cam_from_board, truth[0])
     assert rot_deg < 0.5 and trans_mm < 3.0
+
+
+def _shifted(T: np.ndarray, metres: float) -> np.ndarray:
+    out = T.copy()
+    out[0, 3] += metres
+    return out
+
+
+def test_a_steady_fast_motion_is_followed_from_the_motion_guess(board, scene, truth):
+    """The board sliding 3 cm a frame (about a square): the last two detections give the motion,
+    and the points are followed from where it puts them."""
+    camera, cam = scene
+    flow = CornerFlow(board, camera.K, camera.dist)
+    for k in (0, 1):
+        gray = cv2.cvtColor(cam.render(_shifted(truth[9], 0.03 * k)), cv2.COLOR_BGR2GRAY)
+        flow.anchor(gray, solve_board_pose(board.detect(gray), camera.K, camera.dist))
+    target = _shifted(truth[9], 0.06)
+    est = flow.follow(_blurred(scene, target))
+    assert est is not None, flow.last_refusal
+    rot_deg, trans_mm = pose_error(est.T_cam_from_board, target)
+    assert rot_deg < 0.5 and trans_mm < 2.0
+
+
+def test_points_far_from_the_motion_guess_are_refused(board, scene, truth):
+    """The same 3 cm jump without a motion to expect it: the corners repeat every square, so
+    points found that far from the guess may have slipped onto their neighbours -- refused."""
+    flow = _anchored(board, scene, truth)
+    assert flow.follow(_blurred(scene, _shifted(truth[9], 0.03))) is None
+    assert "guess" in flow.last_refusal
