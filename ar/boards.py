@@ -98,6 +98,35 @@ def _marker_params() -> "cv2.aruco.DetectorParameters":
     return params
 
 
+#: CLAHE of the rescue pass: tiles of about 8 x 8 over the searched image, contrast
+#: amplification clipped at 3 (the usual range is 2-4: less does not lift a dim board,
+#: more turns sensor noise into false marker edges)
+RESCUE_CLAHE_CLIP = 3.0
+#: the rescue pass upsamples a searched image narrower than this (px) twice: a marker's
+#: bit cells need about 3 px each to be read, a 2 cm marker seen at 320 px width has ~2
+RESCUE_UPSAMPLE_BELOW_PX = 480
+
+
+def _rescue_params() -> "cv2.aruco.DetectorParameters":
+    """Marker settings for the rescue pass (:meth:`Board.detect_enhanced`): the product's
+    (:func:`_marker_params`) plus more adaptive-threshold windows (3 to 33 px in steps of 5
+    instead of 3 to 23 in 10: a blurred or dim edge is found by one of the windows between)
+    and a lower threshold constant (5 instead of 7: after CLAHE the ink-paper step of a dim
+    board is still small). Marker corners are refined on the contours: they seed the
+    ChArUco corners' refinement and, on a board with few corners found, stand in as points."""
+    params = _marker_params()
+    params.adaptiveThreshWinSizeMin = 3
+    params.adaptiveThreshWinSizeMax = 33
+    params.adaptiveThreshWinSizeStep = 5
+    params.adaptiveThreshConstant = 5
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_CONTOUR
+    return params
+
+
+#: point ids of ArUco marker corners stood in for ChArUco corners (4 per marker, after every corner id)
+MARKER_CORNER_ID_BASE = 10000
+
+
 def board_dictionary(full: "cv2.aruco.Dictionary", n_markers: int) -> "cv2.aruco.Dictionary":
     """The first ``n_markers`` codes of ``full`` (the ids a board prints), same correction radius.
 
@@ -156,6 +185,10 @@ class Board:
                 self.all_object_points = np.asarray(board.getChessboardCorners(), np.float64).reshape(-1, 3)
                 self.pattern_size_m = (s.cols * s.square_m, s.rows * s.square_m)
                 self._detector = cv2.aruco.CharucoDetector(board, cv2.aruco.CharucoParameters(), _marker_params())
+                rescue = cv2.aruco.CharucoParameters()
+                rescue.tryRefineMarkers = True  # look again for the board's missing markers where the found ones put them
+                self._rescue_detector = cv2.aruco.CharucoDetector(board, rescue, _rescue_params())
+                self._marker_object_points = np.asarray(board.getObjPoints(), np.float64).reshape(-1, 4, 3)
             else:
                 board = cv2.aruco.GridBoard((s.cols, s.rows), s.square_m, s.marker_m, dictionary)
                 self.all_object_points = np.asarray(board.getObjPoints(), np.float64).reshape(-1, 3)
@@ -164,11 +197,15 @@ class Board:
                 params = _marker_params()
                 params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
                 self._detector = cv2.aruco.ArucoDetector(dictionary, params)
+                params = _rescue_params()
+                params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+                self._rescue_detector = cv2.aruco.ArucoDetector(dictionary, params)
             self._cv_board = board
         #: white paper around the pattern: a checkerboard needs a quiet zone of one square
         #: for findChessboardCornersSB; ChArUco/grid need only a thin white border (5 mm),
         #: which keeps the default board (200 x 280 mm pattern) on an A4 page.
         self.margin_m = s.square_m if s.kind == "checker" else 0.005
+        self._clahe = cv2.createCLAHE(clipLimit=RESCUE_CLAHE_CLIP, tileGridSize=(8, 8))
 
     # ----------------------------------------------------------------- geometry
     @property
@@ -209,15 +246,53 @@ class Board:
             if found is not None:
                 found.image_points = found.image_points + np.array([x0, y0], np.float64)
             return found
-        kind = self.spec.kind
-        if scale > 1 and kind != "checker":
+        if scale > 1 and self.spec.kind != "checker":
             return self._detect_scaled(gray, int(scale))
+        return self._detect_whole(gray, rescue=False)
+
+    def detect_enhanced(self, image: np.ndarray, region: tuple[int, int, int, int] | None = None,
+                        upsample: int | None = None) -> BoardDetection | None:
+        """The rescue pass for a dim, small or blurred board (what :meth:`detect` missed).
+
+        Method: the searched image (``region``, else the whole frame) is contrast-normalised
+        with CLAHE (:data:`RESCUE_CLAHE_CLIP`; a dim board's ink and paper a few grey levels
+        apart are stretched locally, a gradient of light across the board is flattened),
+        upsampled ``upsample`` times (default: twice when the searched image is narrower than
+        :data:`RESCUE_UPSAMPLE_BELOW_PX`; bicubic) so small markers' bit cells can be read,
+        and searched with wider detector settings (:func:`_rescue_params`; ChArUco: the
+        board's missing markers looked for again where the found ones put them; checker:
+        OpenCV's quad-based ``findChessboardCorners`` instead of the sector-based one). A ChArUco
+        view with fewer than six corners keeps its markers' corners as extra points (ids from
+        :data:`MARKER_CORNER_ID_BASE`). Points come back in the frame's pixels.
+        """
+        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        h, w = gray.shape[:2]
+        x0, y0, x1, y1 = (0, 0, w, h) if region is None else (max(0, int(region[0])), max(0, int(region[1])),
+                                                              min(w, int(region[2])), min(h, int(region[3])))
+        if x1 - x0 < 16 or y1 - y0 < 16:
+            return None
+        crop = self._clahe.apply(np.ascontiguousarray(gray[y0:y1, x0:x1]))
+        up = (2 if x1 - x0 < RESCUE_UPSAMPLE_BELOW_PX else 1) if upsample is None else max(1, int(upsample))
+        if up > 1:
+            crop = cv2.resize(crop, None, fx=up, fy=up, interpolation=cv2.INTER_CUBIC)
+        found = self._detect_whole(crop, rescue=True)
+        if found is not None:
+            found.image_points = (found.image_points + 0.5) / up - 0.5 + np.array([x0, y0], np.float64)
+        return found
+
+    def _detect_whole(self, gray: np.ndarray, rescue: bool) -> BoardDetection | None:
+        """:meth:`detect` on a whole (grey) image; ``rescue``: with the rescue pass's detector settings."""
+        kind = self.spec.kind
         total = len(self.all_object_points)
         if kind == "checker":
             # CALIB_CB_ACCURACY costs ~4x the time and was less accurate on the bench than
             # a cornerSubPix pass with a window scaled to the square size
-            found, corners = cv2.findChessboardCornersSB(gray, (self.spec.cols, self.spec.rows),
-                                                         flags=cv2.CALIB_CB_NORMALIZE_IMAGE)
+            size = (self.spec.cols, self.spec.rows)
+            if rescue:  # the quad-based detector: it finds some boards SB misses, and fails fast
+                found, corners = cv2.findChessboardCorners(gray, size, flags=cv2.CALIB_CB_ADAPTIVE_THRESH
+                                                           | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK)
+            else:
+                found, corners = cv2.findChessboardCornersSB(gray, size, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)
             if not found or corners is None or len(corners) != total:
                 return None
             grid = corners.reshape(self.spec.rows, self.spec.cols, 2)
@@ -228,16 +303,21 @@ class Board:
             img = corners.reshape(-1, 2).astype(np.float64)
             img = self._orient_checker(gray, img)
             return BoardDetection(self.all_object_points.copy(), img, np.arange(total), total)
+        detector = self._rescue_detector if rescue else self._detector
         if kind == "charuco":
-            cc, cids, _mc, _mids = self._detector.detectBoard(gray)
-            if cids is None or len(cids) < 4:
+            cc, cids, mc, mids = detector.detectBoard(gray)
+            n = 0 if cids is None else len(cids)
+            if n < 4 and not (rescue and mids is not None and len(mids)):
                 return None
-            cc = np.asarray(cc, np.float32).reshape(-1, 1, 2)
-            cids = np.asarray(cids, np.int32).reshape(-1, 1)
-            obj, img = self._cv_board.matchImagePoints(cc, cids)
-            return BoardDetection(np.asarray(obj, np.float64).reshape(-1, 3), np.asarray(img, np.float64).reshape(-1, 2),
-                                  cids.ravel(), total)
-        corners, ids, _rej = self._detector.detectMarkers(gray)
+            obj = np.zeros((0, 3)) if n == 0 else self._cv_board.matchImagePoints(
+                np.asarray(cc, np.float32).reshape(-1, 1, 2), np.asarray(cids, np.int32).reshape(-1, 1))[0]
+            found = BoardDetection(np.asarray(obj, np.float64).reshape(-1, 3),
+                                   np.asarray(cc if n else np.zeros((0, 2)), np.float64).reshape(-1, 2),
+                                   np.asarray(cids if n else [], np.int64).ravel(), total)
+            if rescue and n < 6 and mids is not None:  # few corners: the markers' corners stand in
+                found = self._with_marker_corners(found, mc, mids)
+            return found if found.n >= 4 else None
+        corners, ids, _rej = detector.detectMarkers(gray)
         if ids is None or len(ids) < 1:
             return None
         obj, img = self._cv_board.matchImagePoints(corners, ids)
@@ -246,6 +326,18 @@ class Board:
         point_ids = (np.repeat(ids.ravel() * 4, 4) + np.tile(np.arange(4), len(ids)))
         return BoardDetection(np.asarray(obj, np.float64).reshape(-1, 3), np.asarray(img, np.float64).reshape(-1, 2),
                               point_ids, total)
+
+    def _with_marker_corners(self, found: BoardDetection, marker_corners, marker_ids) -> BoardDetection:
+        """``found`` plus the detected markers' four corners (ids :data:`MARKER_CORNER_ID_BASE` + 4 id + k)."""
+        ids = np.asarray(marker_ids, np.int64).ravel()
+        keep = ids < len(self._marker_object_points)
+        if not keep.any():
+            return found
+        img = np.asarray(marker_corners, np.float64).reshape(-1, 4, 2)[keep].reshape(-1, 2)
+        obj = self._marker_object_points[ids[keep]].reshape(-1, 3)
+        point_ids = MARKER_CORNER_ID_BASE + (ids[keep, None] * 4 + np.arange(4)).ravel()
+        return BoardDetection(np.vstack([found.object_points, obj]), np.vstack([found.image_points, img]),
+                              np.concatenate([found.ids, point_ids]), found.total_points)
 
     def _detect_scaled(self, gray: np.ndarray, scale: int) -> BoardDetection | None:
         """Markers on the shrunk image, corners refined at full resolution (see :meth:`detect`)."""

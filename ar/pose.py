@@ -88,11 +88,30 @@ def solve_board_pose(detection: BoardDetection, K: np.ndarray, dist: np.ndarray)
     if not ok:
         return None
     rvec, tvec = cv2.solvePnPRefineLM(obj, img, K, d, rvec, tvec)
-    proj, _ = cv2.projectPoints(obj, rvec, tvec, K, d)
-    rms = float(np.sqrt(np.mean(np.sum((proj.reshape(-1, 2) - img.reshape(-1, 2)) ** 2, 1))))
-    T = from_rvec_tvec(rvec, tvec)
-    if not np.all(np.isfinite(T)) or T[2, 3] <= 0 or rms > MAX_RMS_PX:
+    return pose_estimate(from_rvec_tvec(rvec, tvec), detection, K, d)
+
+
+def reprojection_residuals(T_cam_from_board: np.ndarray, detection: BoardDetection, K: np.ndarray,
+                           dist: np.ndarray) -> np.ndarray:
+    """(N,) pixel distance between each matched image point and its board point projected by the pose."""
+    obj = detection.object_points.reshape(-1, 1, 3).astype(np.float64)
+    rvec, _ = cv2.Rodrigues(np.ascontiguousarray(T_cam_from_board[:3, :3]))
+    proj, _ = cv2.projectPoints(obj, rvec, T_cam_from_board[:3, 3].astype(np.float64), K,
+                                np.asarray(dist, np.float64).ravel())
+    return np.linalg.norm(proj.reshape(-1, 2) - detection.image_points.reshape(-1, 2), axis=1)
+
+
+def pose_estimate(T: np.ndarray, detection: BoardDetection, K: np.ndarray, dist: np.ndarray,
+                  max_rms_px: float = MAX_RMS_PX) -> PoseEstimate | None:
+    """The quality figures of a solved pose (RMS, coverage, covariance, confidence); ``None``
+    when it is implausible (not finite, behind the camera, RMS over ``max_rms_px``). Shared by
+    the detector's poses and the followed ones (:mod:`ar.corner_flow`)."""
+    if not np.all(np.isfinite(T)) or T[2, 3] <= 0:
         return None
+    rms = float(np.sqrt(np.mean(reprojection_residuals(T, detection, K, dist) ** 2)))
+    if rms > max_rms_px:
+        return None
+    d = np.asarray(dist, np.float64).ravel()
     coverage = detection.n / max(1, detection.total_points)
     # residual rms underestimates noise with few points (6 dof absorbed); floor it at 0.05 px
     dof = max(1, 2 * detection.n - 6)
@@ -121,14 +140,24 @@ class RegionPoseEstimator:
     :meth:`ar.boards.Board.detect`). If the region search finds nothing, or there is
     no recent pose (``max_gap`` frames without one), the whole frame is searched, so the
     result can only differ from :func:`estimate_board_pose` when the board is found in
-    the region: the same detector, then on a crop. ``counts`` records which path each
-    frame took (``region``, ``full``, ``fallback`` = region missed then full frame,
+    the region: the same detector, then on a crop. When both miss, the rescue pass
+    (contrast normalisation, upsampling, wider detector settings:
+    :meth:`ar.boards.Board.detect_enhanced`) searches the region (or the whole frame) once
+    more (upsampled when the markers are small). ``counts`` records which path each frame took (``region``, ``full``,
+    ``fallback`` = region missed then full frame, ``rescued`` = found by the rescue pass,
     ``lost``), ``last_path`` the latest frame's.
     """
 
     def __init__(self, board: Board, K: np.ndarray, dist: np.ndarray, margin_px: float = 24.0,
-                 margin_motion: float = 2.0, min_marker_px: float = 24.0, max_scale: int = 2, max_gap: int = 2):
+                 margin_motion: float = 2.0, min_marker_px: float = 24.0, max_scale: int = 2, max_gap: int = 2,
+                 rescue: bool = True):
+        """``rescue``: when the region and the whole frame both miss, search once more with the
+        rescue pass for dim, small and blurred boards (:meth:`ar.boards.Board.detect_enhanced`)."""
         self.board = board
+        self.rescue = rescue
+        #: the rescue pass upsamples the region twice when the markers were smaller than this (px)
+        self.rescue_upsample_below_px = 16.0
+        self._plan: tuple[tuple[int, int, int, int], int] | None = None
         self.K = np.asarray(K, np.float64)
         self.dist = np.asarray(dist, np.float64).ravel()
         self.margin_px = margin_px
@@ -138,7 +167,7 @@ class RegionPoseEstimator:
         self.max_gap = max_gap
         w, h = board.pattern_size_m
         self._quad = np.array([[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0]], np.float64)
-        self.counts = {"region": 0, "full": 0, "fallback": 0, "lost": 0}
+        self.counts = {"region": 0, "full": 0, "fallback": 0, "rescued": 0, "lost": 0}
         self.last_path = "full"
         self.reset()
 
@@ -162,23 +191,24 @@ class RegionPoseEstimator:
             return None
         scale = 1
         if self.board.spec.kind != "checker":
-            s = self.board.spec
-            edges = np.linalg.norm(np.roll(q, -1, 0) - q, axis=1)  # top, right, bottom, left
-            square_px = min(edges[0] / s.cols, edges[2] / s.cols, edges[1] / s.rows, edges[3] / s.rows)
-            marker_px = square_px * (s.marker_m / s.square_m if s.kind == "charuco" else 1.0)
+            marker_px = self._marker_px(q)
             while scale < self.max_scale and marker_px / (scale + 1) >= self.min_marker_px:
                 scale += 1
         return box, scale
 
-    def estimate(self, image: np.ndarray,
-                 select: Callable[[BoardDetection], BoardDetection] | None = None) -> PoseEstimate | None:
+    def estimate(self, image: np.ndarray, select: Callable[[BoardDetection], BoardDetection] | None = None,
+                 rescue: bool | None = None, whole: bool = True) -> PoseEstimate | None:
         """This frame's pose (``None`` when the board is not found anywhere).
 
         ``select``: applied to each detection before its pose is solved (the rig leaves out
-        the corners its own projector lit, :class:`ar.rig.ProjectedLight`); None keeps all."""
+        the corners its own projector lit, :class:`ar.rig.ProjectedLight`); None keeps all.
+        ``rescue``: whether the rescue pass runs when the region and the whole frame miss
+        (default: the estimator's ``rescue``); ``whole``: whether the whole frame is searched
+        when the region misses. The rig defers both while it follows the board's corners
+        (the region follows the board) and runs them with :meth:`retry` when following fails."""
         gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         h, w = gray.shape[:2]
-        plan = self.predicted_region((w, h))
+        plan = self._plan = self.predicted_region((w, h))
         estimate = None
         if plan is not None:
             box, scale = plan
@@ -186,25 +216,73 @@ class RegionPoseEstimator:
             path = "region" if estimate is not None else "fallback"
         else:
             path = "full"
-        if estimate is None:
+        if estimate is None and (whole or plan is None):
             estimate = self._solve(self.board.detect(gray), select)
+        if estimate is None and (self.rescue if rescue is None else rescue):
+            estimate = self._rescue(gray, select)
+            path = "rescued"
         if estimate is None:
             self.counts["lost"] += 1
             self.last_path = "lost"
             self._gap += 1
             return None
+        return self._found(path, estimate)
+
+    def retry(self, image: np.ndarray, select: Callable[[BoardDetection], BoardDetection] | None = None,
+              whole: bool = True) -> PoseEstimate | None:
+        """What :meth:`estimate` left out on the frame it has just missed: the whole frame
+        (``whole``, when a region was searched) and the rescue pass (if the estimator has it); a
+        pose found now counts that frame as ``fallback`` or ``rescued`` instead of ``lost``."""
+        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        estimate, path = None, "fallback"
+        if whole and self._plan is not None:
+            estimate = self._solve(self.board.detect(gray), select)
+        if estimate is None and self.rescue:
+            estimate, path = self._rescue(gray, select), "rescued"
+        if estimate is None:
+            return None
+        self.counts["lost"] -= 1
+        return self._found(path, estimate)
+
+    def _rescue(self, gray: np.ndarray, select) -> PoseEstimate | None:
+        """:meth:`ar.boards.Board.detect_enhanced` on the predicted region (else the whole frame),
+        upsampled when the last pose's markers were under ``rescue_upsample_below_px``."""
+        plan = self._plan
+        if plan is None:
+            return self._solve(self.board.detect_enhanced(gray), select)
+        up = 2 if self._marker_px(self._last_px) < self.rescue_upsample_below_px else 1
+        return self._solve(self.board.detect_enhanced(gray, plan[0], up), select)
+
+    def _marker_px(self, quad: np.ndarray) -> float:
+        """Side of a marker (checker: a square) in pixels, from the pattern's projected outline."""
+        s = self.board.spec
+        edges = np.linalg.norm(np.roll(quad, -1, 0) - quad, axis=1)  # top, right, bottom, left
+        if s.kind == "checker":
+            return float(min(edges[0] / (s.cols + 1), edges[2] / (s.cols + 1), edges[1] / (s.rows + 1),
+                             edges[3] / (s.rows + 1)))
+        square_px = min(edges[0] / s.cols, edges[2] / s.cols, edges[1] / s.rows, edges[3] / s.rows)
+        return float(square_px * (s.marker_m / s.square_m if s.kind == "charuco" else 1.0))
+
+    def _found(self, path: str, estimate: PoseEstimate) -> PoseEstimate:
         self.last_path = path
         self.counts[path] += 1
-        px = cv2.projectPoints(self._quad.reshape(-1, 1, 3), cv2.Rodrigues(estimate.T_cam_from_board[:3, :3])[0],
-                               estimate.T_cam_from_board[:3, 3], self.K, self.dist)[0].reshape(-1, 2)
+        self.observe(estimate.T_cam_from_board)
+        return estimate
+
+    def observe(self, T_cam_from_board: np.ndarray) -> None:
+        """Take ``T_cam_from_board`` as this frame's pose: the next frame is searched around it.
+        Called with each detected pose, and by the rig with a pose found otherwise (corners
+        followed between detections, :mod:`ar.corner_flow`), so the region follows the board
+        through frames the detector missed."""
+        px = cv2.projectPoints(self._quad.reshape(-1, 1, 3), cv2.Rodrigues(T_cam_from_board[:3, :3])[0],
+                               T_cam_from_board[:3, 3], self.K, self.dist)[0].reshape(-1, 2)
         if not np.all(np.isfinite(px)):
             self.reset()
-            return estimate
+            return
         if self._last_px is not None and self._gap == 0:
             self._motion_px = float(np.max(np.linalg.norm(px - self._last_px, axis=1)))
         self._last_px = px
         self._gap = 0
-        return estimate
 
     def _solve(self, detection: BoardDetection | None,
                select: Callable[[BoardDetection], BoardDetection] | None) -> PoseEstimate | None:

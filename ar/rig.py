@@ -14,6 +14,14 @@ tracker's thread, :class:`ar.live.LiveTracker`); :meth:`RigTracker.step` is it:
    the fit's reprojection error and sinks the pose's confidence under the tracker's
    threshold. Corners are kept all when fewer than :data:`ar.pose.MIN_POINTS` would be left;
 3. **board pose** (IPPE + Levenberg-Marquardt, :func:`ar.pose.solve_board_pose`);
+   when the detector found nothing, the pose is **followed**: the corners of the last detection are followed into
+   this frame by pyramidal Lucas-Kanade and posed by solvePnP (:class:`ar.corner_flow.CornerFlow`,
+   re-anchored by every detection, refused when its points drift or the pose jumps), and
+   the region search goes on from that pose. The whole-frame search and the detector's
+   rescue pass for dim, small and blurred boards (:meth:`ar.boards.Board.detect_enhanced`)
+   run when nothing is being followed, when following fails, and on every
+   :data:`RESCUE_EVERY`-th followed frame (a find re-anchors the follower). :attr:`RigState.found_by` says which:
+   ``detected``, ``followed`` or ``lost``;
 4. **filter and tracking state** (:class:`ar.filtering.PoseTracker`: Kalman filter,
    tracking / holding / lost), driven by the *frame's* timestamp, never the wall clock;
 5. **projector pose**: ``T_proj_from_board = T_proj_from_cam @ T_cam_from_board`` of the
@@ -45,6 +53,7 @@ import numpy as np
 from ar.boards import DEFAULT_BOARD_SPEC, Board, BoardDetection
 from ar.calibration import CameraCalibration, ProjectorCalibration
 from ar.camera_sources import CameraSource, open_camera_source
+from ar.corner_flow import CornerFlow, FlowParams
 from ar.errors import RigError
 from ar.filtering import PoseTracker, TrackerOutput
 from ar.geometry import project_points, scale_intrinsics
@@ -67,6 +76,9 @@ LIT_THRESHOLD = 20
 #: 8 mm from a corner of a 40 mm square moved it by 8 px); half a square also covers the
 #: hand's motion between the frame the light was drawn for and the frame that films it
 LIT_RADIUS_SQUARES = 0.5
+#: while the board's corners are followed, the detector's rescue pass runs on every this-many-th
+#: frame (and whenever following fails): following costs a few ms, the rescue pass several times that
+RESCUE_EVERY = 4
 
 
 @dataclass
@@ -115,7 +127,10 @@ class RigState:
     (``region``, ``full``, ``fallback``, ``lost``); ``lit_points``: corners left out
     under the rig's own light; ``detect_pose_ms``: the step's time (detection, pose,
     filter); ``latency_ms``: from the frame's arrival to the result (live rigs);
-    ``image``: the camera frame (BGR) when the rig keeps it."""
+    ``image``: the camera frame (BGR) when the rig keeps it; ``found_by``: how this frame's
+    estimate was found -- ``detected`` (the detector), ``followed`` (corners followed from
+    the last detection, :mod:`ar.corner_flow`) or ``lost`` (neither: the tracker holds or
+    has lost the pose)."""
 
     frame_index: int
     timestamp_s: float
@@ -126,6 +141,7 @@ class RigState:
     detect_pose_ms: float = 0.0
     latency_ms: float = 0.0
     image: np.ndarray | None = None
+    found_by: str = "lost"
 
     @property
     def state(self) -> str:
@@ -155,15 +171,20 @@ class RigTracker:
 
     def __init__(self, board: Board, K: np.ndarray, dist: np.ndarray, T_proj_from_cam: np.ndarray | None = None,
                  estimator: RegionPoseEstimator | None = None, tracker: PoseTracker | None = None,
-                 lit_radius_squares: float = LIT_RADIUS_SQUARES):
+                 lit_radius_squares: float = LIT_RADIUS_SQUARES, flow: FlowParams | None | bool = None,
+                 rescue: bool = True):
         """``T_proj_from_cam``: the rig's extrinsics (None: no projector pose);
         ``estimator`` / ``tracker``: the detector and the filter (defaults: the product's);
-        ``lit_radius_squares``: how near a corner light may fall (:data:`LIT_RADIUS_SQUARES`)."""
+        ``lit_radius_squares``: how near a corner light may fall (:data:`LIT_RADIUS_SQUARES`);
+        ``flow``: the corner follower's settings (None: the defaults; False: detection only);
+        ``rescue``: the default detector's rescue pass for dim, small and blurred boards."""
         self.board = board
         self.lit_radius_m = lit_radius_squares * board.spec.square_m
         self.T_proj_from_cam = None if T_proj_from_cam is None else np.asarray(T_proj_from_cam, np.float64)
-        self.estimator = estimator or RegionPoseEstimator(board, K, dist)
+        self.estimator = estimator or RegionPoseEstimator(board, K, dist, rescue=rescue)
         self.tracker = tracker or PoseTracker()
+        self.flow = None if flow is False else CornerFlow(board, K, dist, flow if isinstance(flow, FlowParams) else None)
+        self.found_counts = {"detected": 0, "followed": 0, "lost": 0}
         self._next_index = 0
 
     @property
@@ -190,13 +211,35 @@ class RigTracker:
                                   detection.ids[keep], detection.total_points)
 
         t0 = time.perf_counter()
-        estimate = self.estimator.estimate(image, unlit if light is not None else None)
+        select = unlit if light is not None else None
+        # while the corners can be followed, the whole-frame search and the (costly) rescue pass wait
+        # for following to fail, except on every RESCUE_EVERY-th followed frame (a find re-anchors)
+        defer = (self.flow is not None and self.flow.active
+                 and self.flow.frames_followed % RESCUE_EVERY != RESCUE_EVERY - 1)
+        estimate = (self.estimator.estimate(image, select, rescue=False, whole=False) if defer
+                    else self.estimator.estimate(image, select))
+        found_by = "detected" if estimate is not None else "lost"
+        if self.flow is not None:
+            gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+            if estimate is None:
+                estimate = self.flow.follow(gray)
+                if estimate is not None:
+                    found_by = "followed"
+                    self.estimator.observe(estimate.T_cam_from_board)
+                elif defer:
+                    estimate = self.estimator.retry(image, select)
+                    found_by = "detected" if estimate is not None else "lost"
+            if found_by == "detected":
+                self.flow.anchor(gray, estimate)
+            elif found_by == "lost":
+                self.flow.reset()  # no motion is carried across a gap
+        self.found_counts[found_by] += 1
         output = self.tracker.update(estimate, timestamp_s)
         T_proj = (self.T_proj_from_cam @ output.T_cam_from_board
                   if self.T_proj_from_cam is not None and output.T_cam_from_board is not None else None)
         ms = (time.perf_counter() - t0) * 1000
         return RigState(index, float(timestamp_s), output, T_proj, self.estimator.last_path,
-                        dropped[0] if estimate is not None else 0, ms)
+                        dropped[0] if found_by == "detected" else 0, ms, found_by=found_by)
 
 
 # ---------------------------------------------------------------------------- rigs
@@ -337,5 +380,5 @@ def open_rig(profile_dir: Path | None, board: Board, fps: float = 30.0,
     return SyntheticRig(board, fps=fps)
 
 
-__all__ = ["RIG_SIZE", "LIT_THRESHOLD", "LIT_RADIUS_SQUARES", "ProjectedLight", "RigState", "RigTracker", "SyntheticRig",
+__all__ = ["RIG_SIZE", "LIT_THRESHOLD", "LIT_RADIUS_SQUARES", "RESCUE_EVERY", "ProjectedLight", "RigState", "RigTracker", "SyntheticRig",
            "LiveRig", "open_rig"]

@@ -356,7 +356,7 @@ class SessionConfig:
     """A recorded handheld rig session: how the hand moves and what the camera suffers.
 
     ``shutter`` is the exposure time as a fraction of the frame time (motion blur length);
-    the exposure follows a slow drift of ``exposure_drift`` plus an auto-exposure dip to
+    the exposure (``exposure_level`` times 1) follows a slow drift of ``exposure_drift`` plus an auto-exposure dip to
     ``exposure_dip`` a third of the way in (recovering over ``dip_frames``); a hand enters
     over the board at ``hand_at`` (fraction of the session), covers up to ``hand_cover`` of
     it, and leaves after ``hand_frames``.
@@ -371,6 +371,7 @@ class SessionConfig:
     shutter: float = 0.5
     noise_sigma: float = 2.5
     shot_noise: float = 0.3
+    exposure_level: float = 1.0  # the room's light (0.15-0.3: a dim classroom corner)
     exposure_drift: float = 0.15
     exposure_dip: float = 0.45
     dip_frames: int = 15
@@ -485,7 +486,7 @@ def record_rig_session(board: Board, n_frames: int = 150, camera: PinholeModel |
         poses[i] = make_transform(cv2.Rodrigues(np.array([0.0, angle, 0.0]))[0], np.zeros(3)) @ poses[i]
     rng = np.random.default_rng(cfg.seed + 1)
     t = np.arange(n_frames) / cfg.fps
-    exposure = 1.0 + cfg.exposure_drift * np.sin(2 * np.pi * 0.15 * t + rng.uniform(0, 2 * np.pi))
+    exposure = cfg.exposure_level * (1.0 + cfg.exposure_drift * np.sin(2 * np.pi * 0.15 * t + rng.uniform(0, 2 * np.pi)))
     dip_at = n_frames // 3
     k = np.arange(n_frames) - dip_at
     exposure = exposure * np.where(k >= 0, 1.0 - (1.0 - cfg.exposure_dip) * np.exp(-np.maximum(k, 0) / max(1, cfg.dip_frames / 3)), 1.0)

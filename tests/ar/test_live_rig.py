@@ -117,10 +117,10 @@ class _SlowEstimator(RegionPoseEstimator):
         self.period_s = period_s
         self.seen_captured: list[int] = []
 
-    def estimate(self, image, select=None):
+    def estimate(self, image, select=None, **kw):
         self.seen_captured.append(self.live_ref[0].stats().captured)
         time.sleep(3 * self.period_s)
-        return super().estimate(image, select)
+        return super().estimate(image, select, **kw)
 
 
 def test_a_slow_tracker_drops_frames_and_always_takes_the_newest(session, board):

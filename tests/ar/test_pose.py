@@ -119,7 +119,7 @@ def test_region_search_gives_the_full_frame_poses_and_uses_the_region():
         fast = region.estimate(frame)
         assert full is not None and fast is not None
         np.testing.assert_allclose(fast.T_cam_from_board, full.T_cam_from_board, atol=1e-6)
-    assert region.counts == {"region": 11, "full": 1, "fallback": 0, "lost": 0}
+    assert region.counts == {"region": 11, "full": 1, "fallback": 0, "rescued": 0, "lost": 0}
 
 
 def test_region_search_falls_back_to_the_whole_frame():
@@ -143,7 +143,7 @@ def test_region_search_falls_back_to_the_whole_frame():
         assert region.estimate(blank) is None
     assert region.predicted_region((640, 480)) is None  # too long without the board: search whole
     assert region.estimate(cam.render(T)) is not None
-    assert region.counts == {"region": 0, "full": 2, "fallback": 1, "lost": 3}
+    assert region.counts == {"region": 0, "full": 2, "fallback": 1, "rescued": 0, "lost": 3}
 
 
 def test_region_scale_grows_with_marker_size():

@@ -61,7 +61,7 @@ def test_the_region_search_is_used_after_the_first_detection(board, clip):
     rig = RigTracker(board, camera.K, camera.dist)
     paths = [rig.step(frame, i / 30, i).search for i, frame in enumerate(frames[:10])]
     assert paths[0] == "full" and set(paths[1:]) == {"region"}
-    assert rig.counts == {"region": 9, "full": 1, "fallback": 0, "lost": 0}
+    assert rig.counts == {"region": 9, "full": 1, "fallback": 0, "rescued": 0, "lost": 0}
     assert rig.step(frames[10], 10 / 30).T_proj_from_board is None  # no extrinsics, no projector pose
 
 

@@ -91,4 +91,5 @@ def test_the_region_search_is_what_survives_the_sequence(result):
     counts = result.search_paths
     print(f"\nregion search over the stress sequence: {counts}")
     assert sum(counts.values()) == 300
-    assert counts["region"] >= 150 and counts["fallback"] + counts["full"] >= 5
+    # the rescue pass (issue 28) is the last of the fallbacks: it finds some returning boards first
+    assert counts["region"] >= 150 and counts["fallback"] + counts["full"] + counts["rescued"] >= 5
