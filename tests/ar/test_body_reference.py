@@ -29,8 +29,8 @@ from ar.camera_sources import FrameListSource
 DATA = Path(__file__).parent / "data" / "blazepose"
 pytestmark = pytest.mark.skipif(not pose_runtime_available(),
                                 reason="no TFLite interpreter: pip install ai-edge-litert (desktop)")
-MODES = {"static": dict(smooth=False, track=False), "track": dict(smooth=False, redetect=False),
-         "smooth": dict(smooth=True, redetect=False)}
+MODES = {"static": dict(smooth=False, track=False, search=False), "track": dict(smooth=False, redetect=False, search=False),
+         "smooth": dict(smooth=True, redetect=False, search=False)}
 
 
 @pytest.fixture(scope="module")
