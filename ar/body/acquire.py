@@ -140,6 +140,13 @@ def tile_around(roi: bp.Rect, image_size: tuple[int, int], min_side: int) -> Til
     return Tile(x0, y0, side, 0)
 
 
+def new_detections(extra: list[bp.Detection], found: list[bp.Detection],
+                   threshold: float = bp.NMS_MIN_SUPPRESSION) -> list[bp.Detection]:
+    """The detections of ``extra`` (a finer look) that overlap none of ``found`` (by IoU
+    over MediaPipe's suppression threshold): what was found already stays as found."""
+    return [d for d in extra if all(bp.iou(d.box, f.box) <= threshold for f in found)]
+
+
 def body_region(det: bp.Detection, image_size: tuple[int, int]) -> bp.Rect:
     """The body region a detection gives (MediaPipe's PoseDetectionToRoi)."""
     kp = det.keypoints
@@ -186,5 +193,5 @@ def rank(detections: list[bp.Detection], image_size: tuple[int, int], last: bp.R
 
 __all__ = [
     "DETECTABLE_FRACTION", "MIN_BODY", "LEVEL_STEP", "MATCH_DISTANCE", "MATCH_SPEED", "MATCH_SCALE", "Tile", "level_sides",
-    "tile_grid", "order_tiles", "tile_around", "body_region", "priority", "match_distance", "rank",
+    "tile_grid", "order_tiles", "tile_around", "new_detections", "body_region", "priority", "match_distance", "rank",
 ]

@@ -198,7 +198,8 @@ class BodyTracker:
         if self.search and last is not None and not continues(ranked):
             # before following someone else, look where the followed body was, at its scale
             finest = min(t.side for t in self.tiles(size)) if self.tiles(size) else min(w, h)
-            found = bp.weighted_nms(found + self.detect(frame_bgr, acq.tile_around(last, size, finest)))
+            local = self.detect(frame_bgr, acq.tile_around(last, size, finest))
+            found = found + acq.new_detections(local, found)
             timing.tiles += 1
             ranked = acq.rank(found, size, last, since)
         if not ranked and self.search:
