@@ -147,7 +147,7 @@ class BodyTracker:
         self._last_t = -math.inf  # ... and when it was seen
         self._sweep: list[acq.Tile] = []
         self._cursor = 0
-        self._swept = False  # a whole sweep has run since the reset
+        self._swept = False  # a sweep has run since the reset (the first one runs every tile)
 
     def _drop_track(self) -> None:
         """The track is lost: no region for the next frame, the filters' history cleared
@@ -177,60 +177,68 @@ class BodyTracker:
             self._tiles[image_size] = acq.tile_grid(image_size, self.min_body)
         return self._tiles[image_size]
 
-    def candidates(self, frame_bgr: np.ndarray, timestamp_s: float, timing: FrameTiming | None = None
-                   ) -> list[tuple[bp.Detection, bp.Rect]]:
-        """The bodies the detector finds in this frame, best first (detection, region):
-        the whole frame; when the followed body was seen within ``remember_s`` and no
-        candidate continues it, a tile around its last region too; when nothing is found
-        and ``search`` is on, the tile sweep (:meth:`BodyTracker` docstring)."""
-        timing = timing if timing is not None else FrameTiming()
+    def _acquire(self, frame_bgr: np.ndarray, timestamp_s: float, timing: FrameTiming
+                 ) -> tuple[bp.Rect, float, np.ndarray, np.ndarray] | None:
+        """Find the body to follow in this frame (the :class:`BodyTracker` docstring, in
+        order: the whole frame, a look where the followed body was, the tile sweep), and
+        confirm it with the landmark model: (region, flag, landmarks, world), or ``None``."""
         h, w = frame_bgr.shape[:2]
         size = (w, h)
         since = timestamp_s - self._last_t
         last = self._last_roi if self.track and self._last_roi is not None and since <= self.remember_s else None
+        hold = last is not None and since <= self.hold_s
 
-        def continues(ranked: list[tuple[bp.Detection, bp.Rect]]) -> bool:
-            return bool(ranked) and last is not None and acq.match_distance(ranked[0][1], last, size, since) is not None
+        def continues(roi: bp.Rect) -> bool:
+            return last is not None and acq.match_distance(roi, last, size, since) is not None
 
         t1 = time.perf_counter()
         found = self.detect(frame_bgr)
         ranked = acq.rank(found, size, last, since)
-        if self.search and last is not None and not continues(ranked):
+        if self.search and last is not None and not (ranked and continues(ranked[0][1])):
             # before following someone else, look where the followed body was, at its scale
             finest = min(t.side for t in self.tiles(size)) if self.tiles(size) else min(w, h)
             local = self.detect(frame_bgr, acq.tile_around(last, size, finest))
-            found = found + acq.new_detections(local, found)
             timing.tiles += 1
-            ranked = acq.rank(found, size, last, since)
-        if not ranked and self.search:
-            ranked = self._sweep_tiles(frame_bgr, last, since, timing)
+            ranked = acq.rank(found + acq.new_detections(local, found), size, last, since)
         timing.detector_ms += (time.perf_counter() - t1) * 1e3
-        if last is not None and since <= self.hold_s and not continues(ranked):
-            return []  # the followed body is hidden or gone for a moment: nobody else is taken
-        return ranked
+        tiles = self.tiles(size)
+        whole = self.tiles_per_frame is None or not self.track or not self._swept
+        budget = len(tiles) if whole else int(self.tiles_per_frame)
+        while True:
+            if hold:  # the followed body hidden or gone for a moment: nobody else is taken
+                ranked = [c for c in ranked if continues(c[1])]
+            for _det, roi in ranked[:MAX_CANDIDATES]:
+                t1 = time.perf_counter()
+                flag, lm, world = self.landmarks_in(frame_bgr, roi)
+                timing.landmarks_ms += (time.perf_counter() - t1) * 1e3
+                if flag > bp.POSE_PRESENCE_THRESHOLD:
+                    self._cursor = 0  # the next sweep starts afresh
+                    return roi, flag, lm, world
+            if not (self.search and tiles and budget > 0):
+                return None
+            t1 = time.perf_counter()
+            ranked, budget = self._sweep_tiles(frame_bgr, last, since, budget, timing)
+            timing.detector_ms += (time.perf_counter() - t1) * 1e3
 
-    def _sweep_tiles(self, frame_bgr: np.ndarray, last: bp.Rect | None, since: float, timing: FrameTiming
-                     ) -> list[tuple[bp.Detection, bp.Rect]]:
-        """Run the detector on the next tiles of the sweep (at most ``tiles_per_frame``
-        when tracking), stopping at the first tile with a detection; a new sweep starts
-        coarse level first, nearest the followed body (else the frame centre) first."""
+    def _sweep_tiles(self, frame_bgr: np.ndarray, last: bp.Rect | None, since: float, budget: int,
+                     timing: FrameTiming) -> tuple[list[tuple[bp.Detection, bp.Rect]], int]:
+        """Run the detector on the sweep's next tiles, at most ``budget``, up to the first
+        tile with a detection: its candidates, ranked, and the budget left. A new sweep
+        (cursor 0) orders the tiles coarse level first, nearest the followed body (else
+        the frame centre) first; a finished one starts again on the next call."""
         h, w = frame_bgr.shape[:2]
         tiles = self.tiles((w, h))
-        if self._cursor == 0 or len(self._sweep) != len(tiles) or not self.track:
+        if self._cursor == 0 or len(self._sweep) != len(tiles):
             focus = (last.x_center * w, last.y_center * h) if last is not None else (w / 2.0, h / 2.0)
             self._sweep, self._cursor = acq.order_tiles(tiles, focus), 0
-        whole = self.tiles_per_frame is None or not self.track or not self._swept
-        budget = len(tiles) if whole else self.tiles_per_frame
         found: list[bp.Detection] = []
-        while budget > 0 and self._cursor < len(self._sweep) and not found:
+        while budget > 0 and not found:
             found = self.detect(frame_bgr, self._sweep[self._cursor])
-            self._cursor += 1
+            self._cursor = (self._cursor + 1) % len(self._sweep)
             budget -= 1
             timing.tiles += 1
-        if found or self._cursor >= len(self._sweep):
-            self._cursor = 0
-            self._swept = True
-        return acq.rank(bp.weighted_nms(found), (w, h), last, since)
+        self._swept = True
+        return acq.rank(bp.weighted_nms(found), (w, h), last, since), budget
 
     def landmarks_in(self, frame_bgr: np.ndarray, roi: bp.Rect) -> tuple[float, np.ndarray, np.ndarray]:
         """Run the landmark model on ``roi``: (pose flag, image landmarks (39, 5) float32
@@ -265,14 +273,10 @@ class BodyTracker:
                 self._drop_track()  # the track is lost: its filters' history no longer applies
         if not flag > bp.POSE_PRESENCE_THRESHOLD:
             timing.detected = True
-            for _det, roi in self.candidates(frame_bgr, timestamp_s, timing)[:MAX_CANDIDATES]:
-                t1 = time.perf_counter()
-                flag, lm, world = self.landmarks_in(frame_bgr, roi)
-                timing.landmarks_ms += (time.perf_counter() - t1) * 1e3
-                if flag > bp.POSE_PRESENCE_THRESHOLD:
-                    break
-            if not flag > bp.POSE_PRESENCE_THRESHOLD:  # nobody, or no candidate the landmark model confirms
+            acquired = self._acquire(frame_bgr, timestamp_s, timing)
+            if acquired is None:  # nobody, or no candidate the landmark model confirms
                 return self._lost(timing, t0)
+            roi, flag, lm, world = acquired
         size = np.array([w, h, w], np.float32)
         px = lm[:, :3] * size  # MediaPipe filters in pixels (x·W, y·H, z·W), float32
         body, aux = px[: bp.NUM_LANDMARKS], px[bp.AUX_SLICE]
