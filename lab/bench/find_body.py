@@ -30,7 +30,9 @@ frames and over frames that ran the detector, and how many tile runs. Then the c
 acquisition alone: each frame of ``centre`` and ``edge-small`` processed by a reset
 tracker (the detector always runs), median ms with and without the extra pass. With
 ``--videos DIR`` (a folder with ``labels.csv``: ``file,label``), each clip is tracked both
-ways too: frames with a pose and ms per frame.
+ways too: frames with a pose and ms per frame. Last, what the tile sizes rest on: the
+share of walk frames in which the whole-frame detector finds the person, by the person's
+height over the detector input's side (:func:`detector_size_sweep`).
 """
 from __future__ import annotations
 
@@ -270,6 +272,24 @@ def read_clip_rows(folder: Path) -> list[dict]:
     return rows
 
 
+def detector_size_sweep(tracker: BodyTracker, fractions: tuple[float, ...] = tuple(np.round(np.arange(0.18, 0.42, 0.02), 2)),
+                        side: int = 640) -> list[dict]:
+    """What :data:`ar.body.acquire.DETECTABLE_FRACTION` rests on: each walk frame pasted into
+    a square ``side`` frame (so the detector's 224 input is that frame, scaled), the person
+    ``fraction`` × ``side`` tall, standing in the middle; the share of frames in which the
+    whole-frame detector finds them, per fraction."""
+    walk = load_performers("person_walk")
+    out = []
+    for fraction in fractions:
+        hits = 0
+        for k, p in enumerate(walk):
+            img = background((side, side), seed=k)
+            compose(img, p, fraction * side, side / 2, side * 0.5 + fraction * side / 2)
+            hits += bool(tracker.detect(img))
+        out.append({"fraction": float(fraction), "found": hits / len(walk)})
+    return out
+
+
 def track_videos(folder: Path, tracker: BodyTracker) -> list[dict]:
     """Every clip of ``folder/labels.csv`` (``file,label``) tracked: frames with a pose and
     median ms per frame."""
@@ -306,6 +326,7 @@ def run_find_body_bench(frames: int = 45, tiles_per_frame: int | None = 4, video
         done += 1
         if progress:
             progress(done, total)
+    result["detector_size"] = detector_size_sweep(trackers["without"])
     for name in ("centre", "edge-small"):
         shots = list(scene(name, min(frames, 20)))
         result["acquisition"][name] = {mode: acquisition_cost(shots, t) for mode, t in trackers.items()}
@@ -336,6 +357,9 @@ def format_table(result: dict) -> str:
     for name, modes in result["acquisition"].items():
         for mode, r in modes.items():
             lines.append(f"| {name} | {mode} | {r['found']:.2f} | {r['ms_median']:.1f} / {r['cpu_ms_median']:.1f} |")
+    lines += ["", "| body height / detector input side | " + " | ".join(f"{r['fraction']:.2f}" for r in result["detector_size"])
+              + " |", "|---|" + "---|" * len(result["detector_size"]),
+              "| frames found | " + " | ".join(f"{r['found']:.2f}" for r in result["detector_size"]) + " |"]
     if result["videos"]:
         lines += ["", "| clip | label | found with / without | ms with / without |", "|---|---|---|---|"]
         for a, b in zip(result["videos"]["with"], result["videos"]["without"]):
