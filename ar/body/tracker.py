@@ -9,6 +9,10 @@ Per frame (:meth:`BodyTracker.process`), as MediaPipe's ``pose_landmark_cpu`` gr
    weighted non-maximum suppression, the best detection, letterbox removed; its mid-hip
    keypoint is the region's centre, twice its distance to the full-body keypoint the side,
    the direction between them its rotation. Both ways: a square 1.25 times that side.
+   StoryBeam adds (``search=True``, :mod:`ar.body.acquire`): a look where the followed
+   body was, a sweep of tiles at finer scales when the whole frame shows nobody, and a
+   rule for whom to follow among several (the most central and largest, kept across
+   losses).
 2. **Landmarks.** The rotated region cropped to 256×256 (RGB in [0, 1], edge pixels
    replicated), the landmark model run: 39 landmarks (x, y, z, visibility, presence), a
    pose flag, a 64×64 heatmap per landmark (x, y refined from it), world landmarks.
