@@ -202,3 +202,22 @@ def test_real_clips_the_extra_pass_finds_at_least_as_much():
             finally:
                 source.close()
         assert rates[True] >= rates[False] - 0.02, (row["file"], rates)
+
+
+@needs_runtime
+@pytest.mark.slow
+def test_a_candidate_the_landmark_model_refuses_does_not_stop_the_search(monkeypatch):
+    """The whole frame yields a false detection on the empty wall: the landmark model
+    refuses it, and the tile sweep still finds the small person at the edge."""
+    shot = next(iter(scene("edge-small", 1)))
+    tracker = BodyTracker(num_threads=1)
+    real_detect = tracker.detect
+    fake = _det_at(500, 300, 400)  # a "body" on the bare wall
+
+    def detect(frame, tile=None):
+        return [fake] if tile is None else real_detect(frame, tile)
+
+    monkeypatch.setattr(tracker, "detect", detect)
+    pose = tracker.process(shot.image, 0.0)
+    assert on_target(pose, shot) == 0
+    assert tracker.timing.tiles >= 1
