@@ -452,6 +452,7 @@ def _run_act_it_out(args: argparse.Namespace) -> int:
     return _finish(args, result, format_table(result))
 
 
+<<<<<<< HEAD
 def _run_act_videos(args: argparse.Namespace, data: Path) -> int:
     """``bench act-it-out --videos DIR``: real clips through the flow (lab/bench/act_videos.py)."""
     from lab.bench.act_videos import format_videos_table, run_act_videos_bench  # deferred: ar.body, matplotlib
@@ -491,6 +492,32 @@ def _run_act_cameras(args: argparse.Namespace) -> int:
     conds = [c.strip() for c in args.conditions.split(",") if c.strip()] if args.conditions else list(CONDITIONS)
     result = run_act_cameras_bench(Path(data), args.limit, args.seed, conds, args.noise_px,
                                    progress=None if args.quiet else progress_bar("bench act-cameras", "take"))
+=======
+# ------------------------------------------------------------------------ find-body
+FIND_BODY_DOC = """Finding the body wherever it is (lab/bench/find_body.py, docs/notebook/pose.md):
+scenes of known truth at 1920x1080 (a person in the middle, one 1/6 of the height at the
+edge, one walking in, three people with the central one to follow, an empty room),
+tracked on one core with and without the tile pass: frames found, frames on the right
+person, ms per frame (all, tracked, with the detector), tile runs; the cost of an
+acquisition frame alone; with --videos DIR (labels.csv: file,label) real clips too."""
+
+
+def _add_find_body(sub: argparse._SubParsersAction) -> None:
+    p = _parser(sub, "find-body", "finding the body: small, at the edge, several people; cost per frame",
+                FIND_BODY_DOC, _run_find_body, json_default="out/find_body_bench.json")
+    p.add_argument("--frames", type=_at_least(4), default=45, help="frames per scene (default 45)")
+    p.add_argument("--tiles-per-frame", type=_at_least(1), default=4,
+                   help="tile runs per frame while a sweep looks for a body (default 4)")
+    p.add_argument("--videos", type=Path, default=None, help="a folder of real clips with labels.csv (file,label)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _run_find_body(args: argparse.Namespace) -> int:
+    from lab.bench.find_body import format_table, run_find_body_bench  # deferred: ar.body, the interpreter
+
+    result = run_find_body_bench(args.frames, args.tiles_per_frame, args.videos,
+                                 progress=None if args.quiet else progress_bar("bench find-body", "part"))
+>>>>>>> i27body
     return _finish(args, result, format_table(result))
 
 
@@ -505,7 +532,11 @@ TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
     "fast-search-profile": _add_fast_search_profile,
     "pose-search": _add_pose_search,
     "act-it-out": _add_act_it_out,
+<<<<<<< HEAD
     "act-cameras": _add_act_cameras,
+=======
+    "find-body": _add_find_body,
+>>>>>>> i27body
     "storybeam-scale": _add_storybeam_scale,
     "surface": _add_surface,
 }

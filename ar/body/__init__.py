@@ -10,6 +10,8 @@ Modules:
   decoding, weighted NMS, letterbox, the rotated body region, crop, landmark decoding,
   heatmap refinement, projection back to the frame;
 * :mod:`ar.body.smoothing` -- MediaPipe's one-euro and low-pass landmark filters;
+* :mod:`ar.body.acquire` -- finding the body wherever it is (issue 27): the tiles of the
+  detection pass that runs when the whole frame shows nobody, and whom to follow;
 * :mod:`ar.body.tracker` -- ``BodyTracker`` (detect -> track -> re-detect -> smooth),
   ``BodyPose``, ``BodyTake``, ``track_frames``, ``LANDMARK_NAMES``.
 

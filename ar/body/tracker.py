@@ -9,6 +9,10 @@ Per frame (:meth:`BodyTracker.process`), as MediaPipe's ``pose_landmark_cpu`` gr
    weighted non-maximum suppression, the best detection, letterbox removed; its mid-hip
    keypoint is the region's centre, twice its distance to the full-body keypoint the side,
    the direction between them its rotation. Both ways: a square 1.25 times that side.
+   StoryBeam adds (``search=True``, :mod:`ar.body.acquire`): a look where the followed
+   body was, a sweep of tiles at finer scales when the whole frame shows nobody, and a
+   rule for whom to follow among several (the most central and largest, kept across
+   losses).
 2. **Landmarks.** The rotated region cropped to 256×256 (RGB in [0, 1], edge pixels
    replicated), the landmark model run: 39 landmarks (x, y, z, visibility, presence), a
    pose flag, a 64×64 heatmap per landmark (x, y refined from it), world landmarks.
@@ -30,6 +34,7 @@ hips' midpoint, x to the image's right, y down, z away from the camera.
 """
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -38,12 +43,23 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ar.body import acquire as acq
 from ar.body import blazepose as bp
 from ar.body.models import load_model
 from ar.body.smoothing import AUXILIARY, LANDMARKS, WORLD, LandmarkSmoother, OneEuroFilter
 from ar.camera_sources import CameraSource
 from retrieval.errors import StoryBeamError
 from retrieval.motion import LANDMARK_NAMES  # BlazePose's 33 landmarks, in the models' order
+
+#: Default tile runs per frame while the sweep looks for a body (``BodyTracker(tiles_per_frame=...)``).
+TILES_PER_FRAME = 4
+#: For this long (seconds) after the followed body was last seen, only a body continuing
+#: it is taken (someone passing in front of it, or hiding it, is not followed instead) ...
+HOLD_S = 0.5
+#: ... and until this long after, such a body is preferred to the others.
+REMEMBER_S = 2.0
+#: Candidates tried per detection frame until the landmark model confirms one.
+MAX_CANDIDATES = 3
 
 _DETECTOR_OUTPUTS = {"boxes": (1, bp.NUM_ANCHORS, 4 + 2 * bp.NUM_KEYPOINTS), "scores": (1, bp.NUM_ANCHORS, 1)}
 _LANDMARK_OUTPUTS = {
@@ -68,13 +84,15 @@ class BodyPose:
 
 @dataclass
 class FrameTiming:
-    """Milliseconds spent on the last frame: detector (0 when tracked), landmark model
-    (crop + inference + decoding), total (with smoothing)."""
+    """Milliseconds spent on the last frame: detector (0 when tracked; every detector run,
+    tiles included), landmark model (crop + inference + decoding), total (with smoothing);
+    whether the detector ran, and how many of its runs were on tiles (the extra pass)."""
 
     detector_ms: float = 0.0
     landmarks_ms: float = 0.0
     total_ms: float = 0.0
     detected: bool = False
+    tiles: int = 0
 
 
 class BodyTracker:
@@ -86,13 +104,36 @@ class BodyTracker:
     graph, which waits for the next frame). ``num_threads``:
     the interpreter's threads (1 = one core). Raises :class:`ar.body.PoseModelError` when
     a model file is missing or altered, or no TFLite interpreter is installed.
+
+    Finding a body (:mod:`ar.body.acquire`, issue 27): ``search`` (default on) adds the
+    tile pass when the whole-frame detector finds nobody, down to bodies of ``min_body``
+    × the frame height; ``tiles_per_frame`` bounds the tile runs per frame (a sweep then
+    continues on the next frame; ``None``, the first sweep after :meth:`reset`, or
+    without tracking: every tile at once). Candidates are ranked by
+    :func:`ar.body.acquire.rank`. After a loss, the followed body's last place is looked
+    at first (a tile around it) and only a body continuing it is taken for ``hold_s``
+    seconds; until ``remember_s`` such a body is preferred; after that, whoever ranks
+    first. Up to :data:`MAX_CANDIDATES` candidates are tried, best first, until the
+    landmark model confirms one.
     """
 
     def __init__(self, model_dir: Path | None = None, smooth: bool = True, num_threads: int = 1, *,
-                 track: bool = True, redetect: bool = True):
+                 track: bool = True, redetect: bool = True, search: bool = True, min_body: float = acq.MIN_BODY,
+                 tiles_per_frame: int | None = TILES_PER_FRAME, hold_s: float = HOLD_S,
+                 remember_s: float = REMEMBER_S):
+        if not 0.0 < min_body <= 1.0:
+            raise StoryBeamError(f"body tracker: min_body must be in (0, 1], got {min_body}")
+        if tiles_per_frame is not None and tiles_per_frame < 1:
+            raise StoryBeamError(f"body tracker: tiles_per_frame must be at least 1 (or None), got {tiles_per_frame}")
         self.smooth = bool(smooth) and bool(track)
         self.track = bool(track)
         self.redetect = bool(redetect)
+        self.search = bool(search)
+        self.min_body = float(min_body)
+        self.tiles_per_frame = tiles_per_frame
+        self.hold_s = float(hold_s)
+        self.remember_s = float(remember_s)
+        self._tiles: dict[tuple[int, int], list[acq.Tile]] = {}
         self.detector = load_model("detector", _DETECTOR_OUTPUTS, model_dir, num_threads)
         self.landmarker = load_model("landmarks", _LANDMARK_OUTPUTS, model_dir, num_threads)
         self.anchors = bp.ssd_anchors()
@@ -103,21 +144,105 @@ class BodyTracker:
         self.reset()
 
     def reset(self) -> None:
-        """Forget the tracked body and the filters' history (the next frame detects)."""
+        """Forget the tracked body, whom it was following and the filters' history (the
+        next frame detects, as in a fresh tracker)."""
+        self._drop_track()
+        self._last_roi: bp.Rect | None = None  # the followed body's last region ...
+        self._last_t = -math.inf  # ... and when it was seen
+        self._sweep: list[acq.Tile] = []
+        self._cursor = 0
+        self._swept = False  # a sweep has run since the reset (the first one runs every tile)
+
+    def _drop_track(self) -> None:
+        """The track is lost: no region for the next frame, the filters' history cleared
+        (whom it followed is kept, for re-acquisition)."""
         self._roi: bp.Rect | None = None
         self._landmark_filter.reset()
         self._aux_filter.reset()
         self._world_filter.reset()
 
     # ------------------------------------------------------------------ stages
-    def detect(self, frame_bgr: np.ndarray) -> list[bp.Detection]:
-        """Every detection in the frame (normalised to it), best first."""
+    def detect(self, frame_bgr: np.ndarray, tile: acq.Tile | None = None) -> list[bp.Detection]:
+        """Every detection in the frame, or in one ``tile`` of it, normalised to the whole
+        frame, best first."""
         h, w = frame_bgr.shape[:2]
-        matrix, padding = bp.letterbox_transform((w, h))
+        if tile is None:
+            matrix, padding = bp.letterbox_transform((w, h))
+        else:
+            matrix, padding = bp.rect_transform(tile.rect((w, h)), (w, h), bp.DETECTOR_SIZE)
         x = bp.warp_to_tensor(frame_bgr, matrix, bp.DETECTOR_SIZE, (-1.0, 1.0), cv2.BORDER_CONSTANT)
         boxes, scores = self.detector.run(x, ("boxes", "scores"))
-        found = bp.weighted_nms(bp.decode_detections(boxes[0], scores[0], self.anchors))
-        return [bp.remove_letterbox(d, padding) for d in found]
+        found = [bp.remove_letterbox(d, padding) for d in bp.weighted_nms(bp.decode_detections(boxes[0], scores[0], self.anchors))]
+        return found if tile is None else [tile.to_frame(d, (w, h)) for d in found]
+
+    def tiles(self, image_size: tuple[int, int]) -> list[acq.Tile]:
+        """The extra pass's tiles for frames of ``image_size`` (:func:`ar.body.acquire.tile_grid`)."""
+        if image_size not in self._tiles:
+            self._tiles[image_size] = acq.tile_grid(image_size, self.min_body)
+        return self._tiles[image_size]
+
+    def _acquire(self, frame_bgr: np.ndarray, timestamp_s: float, timing: FrameTiming
+                 ) -> tuple[bp.Rect, float, np.ndarray, np.ndarray] | None:
+        """Find the body to follow in this frame (the :class:`BodyTracker` docstring, in
+        order: the whole frame, a look where the followed body was, the tile sweep), and
+        confirm it with the landmark model: (region, flag, landmarks, world), or ``None``."""
+        h, w = frame_bgr.shape[:2]
+        size = (w, h)
+        since = timestamp_s - self._last_t
+        last = self._last_roi if self.track and self._last_roi is not None and since <= self.remember_s else None
+        hold = last is not None and since <= self.hold_s
+
+        def continues(roi: bp.Rect) -> bool:
+            return last is not None and acq.match_distance(roi, last, size, since) is not None
+
+        t1 = time.perf_counter()
+        found = self.detect(frame_bgr)
+        ranked = acq.rank(found, size, last, since)
+        if self.search and last is not None and not (ranked and continues(ranked[0][1])):
+            # before following someone else, look where the followed body was, at its scale
+            finest = min(t.side for t in self.tiles(size)) if self.tiles(size) else min(w, h)
+            local = self.detect(frame_bgr, acq.tile_around(last, size, finest))
+            timing.tiles += 1
+            ranked = acq.rank(found + acq.new_detections(local, found), size, last, since)
+        timing.detector_ms += (time.perf_counter() - t1) * 1e3
+        tiles = self.tiles(size)
+        whole = self.tiles_per_frame is None or not self.track or not self._swept
+        budget = len(tiles) if whole else int(self.tiles_per_frame)
+        while True:
+            if hold:  # the followed body hidden or gone for a moment: nobody else is taken
+                ranked = [c for c in ranked if continues(c[1])]
+            for _det, roi in ranked[:MAX_CANDIDATES]:
+                t1 = time.perf_counter()
+                flag, lm, world = self.landmarks_in(frame_bgr, roi)
+                timing.landmarks_ms += (time.perf_counter() - t1) * 1e3
+                if flag > bp.POSE_PRESENCE_THRESHOLD:
+                    self._cursor = 0  # the next sweep starts afresh
+                    return roi, flag, lm, world
+            if not (self.search and tiles and budget > 0):
+                return None
+            t1 = time.perf_counter()
+            ranked, budget = self._sweep_tiles(frame_bgr, last, since, budget, timing)
+            timing.detector_ms += (time.perf_counter() - t1) * 1e3
+
+    def _sweep_tiles(self, frame_bgr: np.ndarray, last: bp.Rect | None, since: float, budget: int,
+                     timing: FrameTiming) -> tuple[list[tuple[bp.Detection, bp.Rect]], int]:
+        """Run the detector on the sweep's next tiles, at most ``budget``, up to the first
+        tile with a detection: its candidates, ranked, and the budget left. A new sweep
+        (cursor 0) orders the tiles coarse level first, nearest the followed body (else
+        the frame centre) first; a finished one starts again on the next call."""
+        h, w = frame_bgr.shape[:2]
+        tiles = self.tiles((w, h))
+        if self._cursor == 0 or len(self._sweep) != len(tiles):
+            focus = (last.x_center * w, last.y_center * h) if last is not None else (w / 2.0, h / 2.0)
+            self._sweep, self._cursor = acq.order_tiles(tiles, focus), 0
+        found: list[bp.Detection] = []
+        while budget > 0 and not found:
+            found = self.detect(frame_bgr, self._sweep[self._cursor])
+            self._cursor = (self._cursor + 1) % len(self._sweep)
+            budget -= 1
+            timing.tiles += 1
+        self._swept = True
+        return acq.rank(bp.weighted_nms(found), (w, h), last, since), budget
 
     def landmarks_in(self, frame_bgr: np.ndarray, roi: bp.Rect) -> tuple[float, np.ndarray, np.ndarray]:
         """Run the landmark model on ``roi``: (pose flag, image landmarks (39, 5) float32
@@ -149,23 +274,13 @@ class BodyTracker:
             if not flag > bp.POSE_PRESENCE_THRESHOLD:
                 if not self.redetect:
                     return self._lost(timing, t0)
-                self.reset()  # the track is lost: its filters' history no longer applies
+                self._drop_track()  # the track is lost: its filters' history no longer applies
         if not flag > bp.POSE_PRESENCE_THRESHOLD:
             timing.detected = True
-            t1 = time.perf_counter()
-            found = self.detect(frame_bgr)
-            timing.detector_ms = (time.perf_counter() - t1) * 1e3
-            if not found:
+            acquired = self._acquire(frame_bgr, timestamp_s, timing)
+            if acquired is None:  # nobody, or no candidate the landmark model confirms
                 return self._lost(timing, t0)
-            kp = found[0].keypoints
-            roi = bp.roi_from_points(kp[0], kp[1], (w, h))
-            if not roi.usable:  # keypoints on top of each other: no region to crop
-                return self._lost(timing, t0)
-            t1 = time.perf_counter()
-            flag, lm, world = self.landmarks_in(frame_bgr, roi)
-            timing.landmarks_ms += (time.perf_counter() - t1) * 1e3
-            if not flag > bp.POSE_PRESENCE_THRESHOLD:
-                return self._lost(timing, t0)
+            roi, flag, lm, world = acquired
         size = np.array([w, h, w], np.float32)
         px = lm[:, :3] * size  # MediaPipe filters in pixels (x·W, y·H, z·W), float32
         body, aux = px[: bp.NUM_LANDMARKS], px[bp.AUX_SLICE]
@@ -183,6 +298,7 @@ class BodyTracker:
             aux, _ = self._aux_filter.apply(aux, lm[bp.AUX_SLICE, 3], timestamp_s, object_scale)
             aux_norm = aux / size
             self._roi = bp.roi_from_points(aux_norm[0, :2], aux_norm[1, :2], (w, h))
+            self._last_roi, self._last_t = self._roi, timestamp_s
         timing.total_ms = (time.perf_counter() - t0) * 1e3
         self.timing = timing
         return BodyPose(
@@ -192,10 +308,7 @@ class BodyTracker:
         )
 
     def _lost(self, timing: FrameTiming, t0: float) -> None:
-        self._roi = None
-        self._landmark_filter.reset()
-        self._aux_filter.reset()
-        self._world_filter.reset()
+        self._drop_track()
         timing.total_ms = (time.perf_counter() - t0) * 1e3
         self.timing = timing
         return None

@@ -7,7 +7,9 @@ pirouette in which both pipelines lose and find it again), 640x480, consecutive 
 at 30 fps.
 
 Three modes, compared per landmark on the frames where both report a pose: ``static``
-(detector on every frame), ``track`` (tracking, no smoothing), ``smooth`` (video mode).
+(detector on every frame), ``track`` (tracking, no smoothing), ``smooth`` (video mode);
+all without StoryBeam's tile pass (``search=False``), which MediaPipe does not have (it
+finds the pirouetting kid on frames where MediaPipe loses it).
 The issue asks for 1 cm (world) and 2 px (image); measured on this desktop (docs/notebook/pose.md)
 the two agree to float rounding (under 1e-4 px and 1e-4 cm) in every mode, since ar.body
 replays MediaPipe's float32 arithmetic and OpenCV 4's crop to the bit. Asserted: the
@@ -29,8 +31,8 @@ from ar.camera_sources import FrameListSource
 DATA = Path(__file__).parent / "data" / "blazepose"
 pytestmark = pytest.mark.skipif(not pose_runtime_available(),
                                 reason="no TFLite interpreter: pip install ai-edge-litert (desktop)")
-MODES = {"static": dict(smooth=False, track=False), "track": dict(smooth=False, redetect=False),
-         "smooth": dict(smooth=True, redetect=False)}
+MODES = {"static": dict(smooth=False, track=False, search=False), "track": dict(smooth=False, redetect=False, search=False),
+         "smooth": dict(smooth=True, redetect=False, search=False)}
 
 
 @pytest.fixture(scope="module")
@@ -118,13 +120,16 @@ def test_a_lost_track_is_found_again_in_the_same_frame(reference, smooth):
     """The walk cut at frame 6 (the figure jumps 200 px sideways): the region tracked from
     frame 5 misses it. MediaPipe's graph (``redetect=False``) reports no pose for frame 6
     and detects on frame 7; StoryBeam's default detects again in frame 6 itself, and its
-    pose there is the one a tracker meeting that frame fresh finds, to the bit."""
+    pose there is the one a tracker meeting that frame fresh finds, to the bit.
+    (``hold_s=0``: a jump of 200 px in one frame, 0.56 of the body region's side, is
+    further than a person moves, so by default the tracker takes the body there for
+    someone else until its match gate has widened: tests/ar/test_body_search.py.)"""
     _, frames = reference
     walk = frames["person_walk"]
     stream = walk[:6] + [_shifted(img, 200.0) for img in walk[6:]]
     found = {}
     for redetect in (False, True):
-        tracker = BodyTracker(smooth=smooth, redetect=redetect)
+        tracker = BodyTracker(smooth=smooth, redetect=redetect, hold_s=0.0)
         found[redetect] = [tracker.process(img, (k + 1) / 30.0) for k, img in enumerate(stream)]
     assert [p is not None for p in found[False]] == [True] * 6 + [False] + [True] * 5
     assert all(p is not None for p in found[True])
