@@ -452,7 +452,6 @@ def _run_act_it_out(args: argparse.Namespace) -> int:
     return _finish(args, result, format_table(result))
 
 
-<<<<<<< HEAD
 def _run_act_videos(args: argparse.Namespace, data: Path) -> int:
     """``bench act-it-out --videos DIR``: real clips through the flow (lab/bench/act_videos.py)."""
     from lab.bench.act_videos import format_videos_table, run_act_videos_bench  # deferred: ar.body, matplotlib
@@ -492,7 +491,9 @@ def _run_act_cameras(args: argparse.Namespace) -> int:
     conds = [c.strip() for c in args.conditions.split(",") if c.strip()] if args.conditions else list(CONDITIONS)
     result = run_act_cameras_bench(Path(data), args.limit, args.seed, conds, args.noise_px,
                                    progress=None if args.quiet else progress_bar("bench act-cameras", "take"))
-=======
+    return _finish(args, result, format_table(result))
+
+
 # ------------------------------------------------------------------------ find-body
 FIND_BODY_DOC = """Finding the body wherever it is (lab/bench/find_body.py, docs/notebook/pose.md):
 scenes of known truth at 1920x1080 (a person in the middle, one 1/6 of the height at the
@@ -517,7 +518,6 @@ def _run_find_body(args: argparse.Namespace) -> int:
 
     result = run_find_body_bench(args.frames, args.tiles_per_frame, args.videos,
                                  progress=None if args.quiet else progress_bar("bench find-body", "part"))
->>>>>>> i27body
     return _finish(args, result, format_table(result))
 
 
@@ -532,11 +532,8 @@ TARGETS: dict[str, Callable[[argparse._SubParsersAction], None]] = {
     "fast-search-profile": _add_fast_search_profile,
     "pose-search": _add_pose_search,
     "act-it-out": _add_act_it_out,
-<<<<<<< HEAD
     "act-cameras": _add_act_cameras,
-=======
     "find-body": _add_find_body,
->>>>>>> i27body
     "storybeam-scale": _add_storybeam_scale,
     "surface": _add_surface,
 }
