@@ -25,7 +25,7 @@ AR_CONDITION_KEYS = {"detect_rate", "rot_err_deg_median", "trans_err_mm_median",
                      "jitter_raw_deg", "jitter_filtered_deg", "jitter_raw_mm", "jitter_filtered_mm",
                      "landing_error_mm_median", "detect_pose_ms_median", "render_ms_median"}
 EXPECTED_TARGETS = ("retrieval", "ar", "animation", "dtw-kernels", "motion-io", "numpy-retrieval", "fast-search-profile",
-                    "pose-search", "act-it-out", "find-body", "storybeam-scale")
+                    "pose-search", "act-it-out", "act-cameras", "find-body", "storybeam-scale", "surface")
 
 
 def _json(path) -> dict:
