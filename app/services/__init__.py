@@ -11,6 +11,8 @@
   (``retrieval.library.ActSearch``); no frame is kept;
 * :mod:`app.services.background` -- ``BackgroundLoad``: work done once on a background
   thread (the search indexes), with callbacks when it has ended;
+* :mod:`app.services.gallery` -- saving a story's video where the family finds it (the
+  desktop's videos folder, Android's Movies collection through MediaStore) and sharing it;
 * :mod:`app.services.recording` -- recording a scene's narration (Android AudioRecord
   through pyjnius, sounddevice on a desktop) into a crash-safe ``.part`` file.
 
@@ -36,6 +38,16 @@ from app.services.act_it_out import (
 )
 from app.services.calibration_wizard import CalibrationStep, CalibrationWizard
 from app.services.catalog import ClipInfo, MotionCatalog
+from app.services.gallery import (
+    VIDEO_SAVE_SETTING,
+    DesktopGallery,
+    Gallery,
+    GalleryError,
+    SavedVideo,
+    gallery_for,
+    set_video_saving_allowed,
+    video_saving_allowed,
+)
 from app.services.recording import (
     RECORD_RATE,
     ArraySource,
@@ -65,4 +77,6 @@ __all__ = [
     "ActItOut", "ActItOutError", "ActLibrary", "TakeVerdict", "judge_poses", "act_it_out_allowed",
     "set_act_it_out_allowed", "ACT_SETTING", "STEP_BACK", "LIFT_HEAD", "NO_BODY", "SKELETON_BONES",
     "ChunkRecorder", "ChunkSource", "ArraySource", "RecordingError", "RECORD_RATE", "find_recorder", "discard_stale",
+    "Gallery", "DesktopGallery", "GalleryError", "SavedVideo", "gallery_for", "VIDEO_SAVE_SETTING",
+    "video_saving_allowed", "set_video_saving_allowed",
 ]
