@@ -187,6 +187,17 @@ def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, f
         for strip in ([(0.72, 0.7), (0.72, 0.38)], [(0.52, 0.82), (0.72, 0.62), (0.92, 0.82)],
                       [(0.6, 0.06), (0.72, 0.38), (0.84, 0.06)]):
             Line(points=[c for p in strip for c in P(*p)], width=lw, cap="round", joint="round")
+    elif name == "tick":  # done, saved
+        Line(points=[*P(0.12, 0.5), *P(0.4, 0.2), *P(0.9, 0.82)], width=lw * 1.6, cap="round", joint="round")
+    elif name == "bin":  # the story bin: a can with a lid
+        Rectangle(pos=P(0.12, 0.74), size=(0.76 * s, 0.08 * s))
+        Rectangle(pos=P(0.4, 0.82), size=(0.2 * s, 0.06 * s))
+        Line(points=[*P(0.2, 0.7), *P(0.27, 0.08), *P(0.73, 0.08), *P(0.8, 0.7)], width=lw, joint="round")
+        for u in (0.38, 0.5, 0.62):
+            Line(points=[*P(u, 0.6), *P(u, 0.18)], width=lw * 0.6)
+    elif name == "rename":  # a pencil
+        Line(points=[*P(0.2, 0.2), *P(0.78, 0.78)], width=lw * 2.2, cap="none")
+        Triangle(points=[*P(0.1, 0.1), *P(0.3, 0.16), *P(0.16, 0.3)])
     elif name in ("sky", "grass", "night", "sea", "castle", "forest", "space", "sand"):
         draw_background(name, x, y, s, s)
     else:  # unknown: a plain dot, never an empty button

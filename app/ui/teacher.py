@@ -24,10 +24,12 @@ from kivy.uix.textinput import TextInput
 from kivy.uix.widget import Widget
 
 from app.player.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice
-from app.services import CalibrationWizard, act_it_out_allowed, set_act_it_out_allowed
+from app.services import (CalibrationWizard, act_it_out_allowed, set_act_it_out_allowed, set_video_saving_allowed,
+                          video_saving_allowed)
 from app.story import RECOVERY_CODE_DIGITS, StorageError, valid_pin
 from app.ui.import_picker import ImportPicker
 from app.ui.narration import RECORDING_SETTING, recording_allowed
+from app.ui.story_bin import BinView
 from app.ui.strings import tr
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
@@ -354,6 +356,11 @@ class TeacherScreen(Screen):
         self.action_buttons["recording"] = IconButton(
             "teacher", f"{t('recording_setting')}: {t('on') if voice_on else t('off')}",
             on_press=self.toggle_recording, selected=voice_on, font_size=dp(13))
+        saving_on = video_saving_allowed(store)  # children may save their story's video (app.ui.story_end)
+        self.action_buttons["video_saving"] = IconButton(
+            "export", f"{t('video_saving_setting')}: {t('on') if saving_on else t('off')}",
+            on_press=self.toggle_video_saving, selected=saving_on, font_size=dp(13))
+        self.action_buttons["story_bin"] = IconButton("bin", t("story_bin"), on_press=lambda: BinView().open())
         for button in self.action_buttons.values():
             right.add_widget(button)
         # the rig's camera: a device number, or a recording (video file, folder of images)
@@ -423,6 +430,11 @@ class TeacherScreen(Screen):
     def toggle_recording(self) -> None:
         store = App.get_running_app().store
         store.set_setting(RECORDING_SETTING, "off" if recording_allowed(store) else "on")
+        self.refresh()
+
+    def toggle_video_saving(self) -> None:
+        store = App.get_running_app().store
+        set_video_saving_allowed(store, not video_saving_allowed(store))
         self.refresh()
 
     def toggle_act_it_out(self) -> None:
