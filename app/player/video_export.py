@@ -350,7 +350,8 @@ def _stop_children() -> None:
 
 def export_in_subprocess(story: Story, path: str | Path, fps: float | None = None, view: str = "story",
                          progress: Callable[[int, int], None] | None = None,
-                         narration_dir: str | Path | None = None) -> ExportResult:
+                         narration_dir: str | Path | None = None,
+                         size: tuple[int, int] | None = None) -> ExportResult:
     """Run :func:`export_story_mp4` in a child Python process (its own GL context, away
     from the Kivy window's); ``progress(done, total)`` follows its frame count. Blocks:
     call it from a worker thread."""
@@ -360,7 +361,7 @@ def export_in_subprocess(story: Story, path: str | Path, fps: float | None = Non
         story_json = fh.name
     # the child is `storybeam export` (app.commands.export_cmd), run from the checkout
     cmd = ([sys.executable, "-m", "app.cli", "export", story_json, str(path), "--view", view, "--progress-lines"]
-           + (["--fps", str(fps)] if fps else [])
+           + (["--fps", str(fps)] if fps else []) + (["--size", f"{size[0]}x{size[1]}"] if size else [])
            + (["--narration-dir", str(narration_dir)] if narration_dir is not None else []))
     root = str(REPO_ROOT)
     proc = None
@@ -393,18 +394,19 @@ def export_in_subprocess(story: Story, path: str | Path, fps: float | None = Non
 
 
 def app_exporter(view: str = "story", fps: float | None = None,
-                 narration_dirs: Callable[[Story], Path] | None = None):
+                 narration_dirs: Callable[[Story], Path] | None = None, size: tuple[int, int] | None = None):
     """The exporter the app calls from a worker thread: ``export(story, path,
     progress(done, total)) -> ExportResult``. 3-D in a child process when pyrender is
     installed; otherwise (a slim install) the 2-D video in the calling thread (the film
     keeps its cards and sound), with the reason in the result's ``note`` and the log.
-    ``narration_dirs(story)``: the folder of a story's assets, for its voices."""
+    ``narration_dirs(story)``: the folder of a story's assets, for its voices; ``size``:
+    the film's (default 1280x720)."""
     def voices(story: Story) -> Path | None:
         return narration_dirs(story) if narration_dirs is not None and has_narration(story) else None
 
     if view != "2d" and importlib.util.find_spec("pyrender") is not None:
         def export(story: Story, path: str | Path, progress=None) -> ExportResult:
-            return export_in_subprocess(story, path, fps, view, progress, voices(story))
+            return export_in_subprocess(story, path, fps, view, progress, voices(story), size)
         return export
 
     flat = "story" if view == "story" else "2d"
@@ -412,7 +414,7 @@ def app_exporter(view: str = "story", fps: float | None = None,
     def export_2d(story: Story, path: str | Path, progress=None) -> ExportResult:
         total = frame_count(story, fps or default_fps(flat), flat)
         result = export_story_mp4(story, path, fps, (lambda i: progress(i + 1, total)) if progress else None, flat,
-                                  voices(story))
+                                  voices(story), size)
         if view != "2d" and not result.note:
             result.mode = "2d"
             result.note = "3-D rendering unavailable (pyrender is not installed); top-down 2-D video instead"

@@ -34,9 +34,11 @@ class StoryTile(ButtonBehavior, BoxLayout):
         self.cover = cover
         self.picture = BoxLayout()
         self.add_widget(self.picture)
-        tools = BoxLayout(size_hint=(1, None), height=dp(48), spacing=dp(8))
-        self.rename_button = IconButton("rename", "", on_press=on_rename, size_hint_x=None, width=dp(56))
-        self.bin_button = IconButton("bin", "", on_press=on_bin, size_hint_x=None, width=dp(56))
+        tools = BoxLayout(size_hint=(1, None), height=dp(52), spacing=dp(8))
+        self.rename_button = IconButton("rename", "", on_press=on_rename, size_hint_x=None, width=dp(64),
+                                        background=[0.85, 0.93, 1.0, 1])
+        self.bin_button = IconButton("bin", "", on_press=on_bin, size_hint_x=None, width=dp(64),
+                                     background=[1.0, 0.88, 0.85, 1])
         tools.add_widget(Label())
         tools.add_widget(self.rename_button)
         tools.add_widget(self.bin_button)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 from kivy.app import App
 from kivy.clock import Clock
+from kivy.core.audio import SoundLoader
 from kivy.graphics import Color, PopMatrix, PushMatrix, Rectangle, Rotate
 from kivy.metrics import dp
 from kivy.uix.boxlayout import BoxLayout
@@ -39,6 +40,8 @@ from app.ui.widgets import IconButton, IconView, filled
 from retrieval.errors import StoryBeamError
 
 log = logging.getLogger(__name__)
+#: loads a sound file (Kivy's SoundLoader; the UI tests put a recorder here)
+sound_loader = SoundLoader.load
 
 
 class Celebration(Widget):
@@ -82,14 +85,12 @@ _chime_path: list[Path] = []
 def play_chime() -> bool:
     """Play the celebration sound; False where it cannot (no audio output, no writable folder)."""
     try:
-        from kivy.core.audio import SoundLoader  # deferred: Kivy's audio provider loads on first use
-
         if not _chime_path:
             path = App.get_running_app().export_dir.parent / "storybeam-chime.wav"
             if not path.is_file():
                 path.write_bytes(chime_wav(44100))
             _chime_path.append(path)
-        sound = SoundLoader.load(str(_chime_path[0]))
+        sound = sound_loader(str(_chime_path[0]))
         if sound is None:
             return False
         sound.play()
@@ -178,8 +179,9 @@ class VideoSaver:
         self.saved, self.error = saved, error
         self.bar.value = self.bar.max
         self.picture.icon = "tick" if saved is not None else "delete"
-        # one short line for the grown-ups (where it went); the child sees the picture
-        self.note.text = saved.location if saved is not None else self.app.t("video_not_saved")
+        # one short sentence for the grown-ups (where to find it, no path); the child sees the picture
+        where = "video_saved_android" if platform == "android" else "video_saved"
+        self.note.text = self.app.t(where) if saved is not None else self.app.t("video_not_saved")
         self.close_button.disabled, self.close_button.opacity = False, 1
         if saved is not None and platform == "android":
             try:

@@ -103,6 +103,9 @@ from act_scenarios import RENDERED as ACT_RENDERED  # noqa: E402  (issue 18: Act
 from act_scenarios import SCENARIOS as ACT_SCENARIOS  # noqa: E402
 
 SCENARIOS.update(ACT_SCENARIOS)
+from story_end_scenarios import SCENARIOS as STORY_END_SCENARIOS  # noqa: E402  (issue 29: the end, own file)
+
+SCENARIOS.update(STORY_END_SCENARIOS)
 app_ref: list = []
 
 
@@ -202,7 +205,7 @@ class DriverApp(StoryBeamApp):
 
 if __name__ == "__main__":
     lang = os.environ.get("STORYBEAM_TEST_LANG", "en")
-    demo = SCENARIO in ("editor", "language", "play3d", "projector3d", "thumbs")
+    demo = SCENARIO in ("editor", "language", "play3d", "projector3d", "thumbs", "story_end")
     if SCENARIO == "teacher":  # one saved story for the exports (made outside the UI)
         from app.story.demo_story import demo_story
         from app.story.storage import ProfileStore

@@ -1,0 +1,114 @@
+"""Issue 29 scenarios for tests/support/ui_driver.py, in their own file: the end of a story
+in Play (celebration, controls, saving the video), and managing stories on the home screen
+(bin, name by picture) and in teacher mode (the bin, the video-saving switch).
+
+The driver runs as ``__main__``; its helpers are taken from there. The sound loader is a
+recorder (the offscreen machine has no audio device); the video is the real story film,
+exported by the app's exporter in a child process, at 320x180 and 5 fps to stay short.
+"""
+from __future__ import annotations
+
+import sys
+import time
+
+drv = sys.modules["__main__"]
+SOUNDS: list[str] = []
+
+
+class FakeSound:
+    def __init__(self, path: str):
+        self.path = path
+
+    def play(self):
+        SOUNDS.append(self.path)
+
+    def stop(self):
+        pass
+
+
+def waiting(check, what: str, seconds: float = 120.0):
+    deadline: list[float] = []
+
+    def step():
+        if not deadline:
+            deadline.append(time.monotonic() + seconds)
+        if check():
+            return None
+        if time.monotonic() > deadline[0]:
+            raise AssertionError(f"waited {seconds:.0f} s for {what}")
+        return "again"
+    return step
+
+
+def story_end_steps(app):
+    import app.ui.story_end as story_end
+    from app.player.video_export import app_exporter
+    from app.services import set_video_saving_allowed
+    from app.story import DEMO_STORY_ID
+
+    tap, touching, result = drv.tap, drv.touching, drv.result
+    story_end.sound_loader = FakeSound
+    app.video_exporter = app_exporter("story", fps=5.0, size=(320, 180))
+    play = lambda: app.sm.get_screen("play")  # noqa: E731
+
+    def open_play():
+        app.open_story(DEMO_STORY_ID)
+        app.go("play")
+    yield open_play
+    yield lambda: result.update(icon_start=play().play_button.icon)
+    yield touching(lambda: tap(play().play_button), until=lambda: play().player.playing)
+    yield lambda: result.update(icon_playing=play().play_button.icon, text_playing=play().play_button.text)
+    yield lambda: play().player.seek(play().player.duration - 0.2)  # near the end
+    yield waiting(lambda: play().celebration is not None, "the celebration", 20)
+    yield lambda: result.update(icon_end=play().play_button.icon, text_end=play().play_button.text,
+                                sounds=list(SOUNDS))
+    yield lambda: drv.shot("celebration")
+    yield waiting(lambda: play().end_panel is not None, "the end choices", 20)
+    yield lambda: result.update(celebration_frames=None, save_offered=play().end_panel.save_button is not None)
+    yield lambda: drv.shot("end_panel")
+    yield touching(lambda: tap(play().end_panel.save_button), until=lambda: play().saver is not None
+                   and play().saver.view is not None)
+    yield waiting(lambda: play().saver.bar.value > 0, "export progress", 180)
+    yield lambda: result.update(progress_seen=[play().saver.bar.value, play().saver.bar.max])
+    yield waiting(lambda: not play().saver.busy and (play().saver.saved or play().saver.error), "the saved video", 240)
+    yield lambda: result.update(saved=play().saver.saved.location if play().saver.saved else None,
+                                save_error=play().saver.error, saved_icon=play().saver.picture.icon)
+    yield lambda: drv.shot("saved")
+    yield touching(lambda: tap(play().saver.close_button), until=lambda: play().saver.view is None)
+    yield touching(lambda: tap(play().end_panel.replay_button), until=lambda: play().player.playing)
+    yield lambda: result.update(icon_replay=play().play_button.icon, end_gone=play().end_panel is None)
+    yield touching(lambda: tap(play().play_button), until=lambda: not play().player.playing)
+    yield lambda: result.update(icon_paused=play().play_button.icon)
+    # the teacher forbids saving: the end offers again and home only
+    yield lambda: set_video_saving_allowed(app.store, False)
+    yield lambda: play().show_end_choices()
+    yield lambda: result.update(save_offered_when_forbidden=play().end_panel.save_button is not None)
+    yield touching(lambda: tap(play().end_panel.home_button), until=lambda: app.sm.current == "home")
+    # home: name the story by picture, then move it to the bin
+    home = lambda: app.sm.get_screen("home")  # noqa: E731
+    tile = lambda: next(t for t in home().tiles if t.story_id == DEMO_STORY_ID)  # noqa: E731
+    yield touching(lambda: tap(tile().rename_button), until=lambda: getattr(home(), "rename_view", None) is not None
+                   and home().rename_view.parent is not None)
+    yield lambda: result.update(title_input_for_child=home().rename_view.title_input is not None)
+    yield touching(lambda: tap(home().rename_view.picture_buttons["animal"]),
+                   until=lambda: home().rename_view.picture == "animal")
+    yield touching(lambda: tap(home().rename_view.colour_buttons[5]), until=lambda: home().rename_view.colour == 5)
+    yield lambda: drv.shot("rename")
+    yield touching(lambda: tap(home().rename_view.ok_button),
+                   until=lambda: app.store.load_story(DEMO_STORY_ID).cover is not None)
+    yield lambda: result.update(cover=app.store.load_story(DEMO_STORY_ID).to_dict()["cover"])
+    yield waiting(lambda: home().rename_view.parent is None, "the rename view to close", 10)
+    yield lambda: drv.shot("home_named")
+    yield touching(lambda: tap(tile().bin_button), until=lambda: not app.store.list_stories())
+    yield lambda: result.update(binned=[s.id for s in app.store.binned_stories()], tiles_after_bin=len(home().tiles))
+    # the teacher's bin brings it back
+    from app.ui.story_bin import BinView
+    views: list = []
+    yield lambda: views.append(BinView(on_change=home().refresh)) or views[0].open()
+    yield touching(lambda: tap(views[0].restore_buttons[DEMO_STORY_ID]), until=lambda: bool(app.store.list_stories()))
+    yield lambda: result.update(restored=[s.id for s in app.store.list_stories()], tiles_after_restore=len(home().tiles))
+    yield lambda: views[0].dismiss()
+    yield drv.finish
+
+
+SCENARIOS = {"story_end": story_end_steps}
