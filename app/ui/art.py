@@ -195,6 +195,11 @@ def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, f
         Line(points=[*P(0.2, 0.7), *P(0.27, 0.08), *P(0.73, 0.08), *P(0.8, 0.7)], width=lw, joint="round")
         for u in (0.38, 0.5, 0.62):
             Line(points=[*P(u, 0.6), *P(u, 0.18)], width=lw * 0.6)
+    elif name == "mic":  # a microphone: a voice to record
+        RoundedRectangle(pos=P(0.36, 0.4), size=(0.28 * s, 0.5 * s), radius=[0.14 * s])
+        Line(ellipse=(*P(0.24, 0.22), 0.52 * s, 0.52 * s, 90, 270), width=lw)
+        Line(points=[*P(0.5, 0.22), *P(0.5, 0.08)], width=lw)
+        Line(points=[*P(0.32, 0.08), *P(0.68, 0.08)], width=lw, cap="round")
     elif name == "rename":  # a pencil
         Line(points=[*P(0.2, 0.2), *P(0.78, 0.78)], width=lw * 2.2, cap="none")
         Triangle(points=[*P(0.1, 0.1), *P(0.3, 0.16), *P(0.16, 0.3)])

@@ -19,7 +19,7 @@ from kivy.uix.scrollview import ScrollView
 
 from app.story import COVER_COLOURS, Cover, Scene, StorageError, StorySummary
 from app.ui.art import draw_background, draw_character_badge, draw_icon
-from app.ui.story_bin import RenameView
+from app.ui.story_bin import RenameView, play_asset
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 
 
@@ -40,6 +40,11 @@ class StoryTile(ButtonBehavior, BoxLayout):
         self.bin_button = IconButton("bin", "", on_press=on_bin, size_hint_x=None, width=dp(64),
                                      background=[1.0, 0.88, 0.85, 1])
         tools.add_widget(Label())
+        self.name_button = None
+        if cover is not None and cover.voice is not None:  # the name said aloud
+            self.name_button = IconButton("play", "", on_press=lambda: play_asset(summary.id, cover.voice.asset),
+                                          size_hint_x=None, width=dp(64), background=[0.85, 1.0, 0.85, 1])
+            tools.add_widget(self.name_button)
         tools.add_widget(self.rename_button)
         tools.add_widget(self.bin_button)
         self.add_widget(Label(text=title, font_size=dp(20), color=(0.1, 0.1, 0.15, 1), size_hint_y=None,

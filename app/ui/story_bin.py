@@ -2,7 +2,10 @@
 
 * :class:`RenameView` -- a child names a story without typing: one of the cover pictures
   (:data:`app.story.COVER_PICTURES`: the characters and the places) on one of the cover
-  colours; in teacher mode a text field for a typed title too. Saved through
+  colours, and the name said aloud (the microphone button records at most
+  :data:`VOICE_NAME_SECONDS`, through the narration recorder -- :mod:`app.services.recording`
+  -- into a story asset named like a narration, so packages carry it and pruning keeps
+  it); in teacher mode a text field for a typed title too. Saved through
   :meth:`app.story.ProfileStore.rename_story` (one transaction).
 * :class:`BinView` -- the teacher's bin: every binned story as a tile with *bring back*,
   and *empty the bin* (deletes for good: rows, then assets).
@@ -13,6 +16,7 @@ A child's *delete* on the home screen only moves the story to the bin
 from __future__ import annotations
 
 from kivy.app import App
+from kivy.clock import Clock
 from kivy.metrics import dp
 from kivy.uix.boxlayout import BoxLayout
 from kivy.uix.gridlayout import GridLayout
@@ -21,8 +25,23 @@ from kivy.uix.modalview import ModalView
 from kivy.uix.scrollview import ScrollView
 from kivy.uix.textinput import TextInput
 
-from app.story import COVER_COLOURS, COVER_PICTURES, Cover, StorageError
+import app.ui.narration as narration
+from app.services.recording import ChunkRecorder
+from app.story import COVER_COLOURS, COVER_PICTURES, Cover, Narration, StorageError, encode_wav, read_audio
+from app.story.narration import asset_name
 from app.ui.widgets import IconButton, big_label, filled
+from retrieval.errors import StoryBeamError
+
+#: the longest name said aloud (seconds)
+VOICE_NAME_SECONDS = 5.0
+
+
+def play_asset(story_id: str, asset: str) -> None:
+    """Play a story's recorded asset (a name said aloud) through the narration's sound loader."""
+    app = App.get_running_app()
+    sound = narration.sound_loader(str(app.store.asset_path(story_id, asset)))
+    if sound is not None:
+        sound.play()
 
 
 class RenameView(ModalView):
@@ -54,6 +73,16 @@ class RenameView(ModalView):
             self.colour_buttons.append(b)
             colours.add_widget(b)
         box.add_widget(colours)
+        voice_row = BoxLayout(size_hint_y=None, height=dp(76), spacing=dp(12))
+        self.recorder: ChunkRecorder | None = None
+        self.make_source, _why = narration.recorder_finder()
+        self.mic_button = IconButton("mic", t("say_name"), on_press=self.toggle_voice,
+                                     background=[1.0, 0.85, 0.85, 1])
+        self.listen_button = IconButton("play", t("listen"), on_press=self.listen, disabled=self.voice is None)
+        if self.make_source is not None:  # no microphone here: no button (the reason is in the log)
+            voice_row.add_widget(self.mic_button)
+        voice_row.add_widget(self.listen_button)
+        box.add_widget(voice_row)
         self.title_input = None
         if app.teacher_unlocked:  # typing is for grown-ups
             self.title_input = TextInput(text=story.title, multiline=False, font_size=dp(20), size_hint_y=None,
@@ -76,7 +105,50 @@ class RenameView(ModalView):
         for i, b in enumerate(self.colour_buttons):
             b.selected = i == k
 
+    def toggle_voice(self) -> None:
+        """Start recording the name, or stop and keep it as a story asset."""
+        app = App.get_running_app()
+        if self.recorder is None:
+            try:
+                self.recorder = ChunkRecorder(self.make_source(), narration.recording_folder(app.db_path),
+                                              limit_seconds=VOICE_NAME_SECONDS,
+                                              on_limit=lambda: Clock.schedule_once(lambda dt: self.toggle_voice(), 0))
+                self.recorder.start()
+            except (StoryBeamError, OSError, RuntimeError) as exc:
+                self.recorder = None
+                app.show_message(app.t("error", why=str(exc)))
+                return
+            self.mic_button.icon, self.mic_button.selected = "pause", True
+            return
+        recorder, self.recorder = self.recorder, None
+        self.mic_button.icon, self.mic_button.selected = "mic", False
+        try:
+            path = recorder.stop()
+            try:
+                audio = read_audio(path)
+            finally:
+                path.unlink(missing_ok=True)
+            wav = encode_wav(audio)
+            name = asset_name(wav)
+            app.store.put_asset(self.story_id, name, wav)
+        except StoryBeamError as exc:
+            app.show_message(app.t("error", why=str(exc)))
+            return
+        self.voice = Narration(name, round(audio.seconds, 6))
+        self.listen_button.disabled = False
+
+    def listen(self) -> None:
+        if self.voice is not None:
+            play_asset(self.story_id, self.voice.asset)
+
+    def on_dismiss(self) -> None:
+        if self.recorder is not None:
+            self.recorder.cancel()
+            self.recorder = None
+
     def save(self) -> None:
+        if self.recorder is not None:
+            self.toggle_voice()
         app = App.get_running_app()
         title = self.title_input.text.strip() if self.title_input is not None else None
         try:
@@ -140,4 +212,4 @@ class BinView(ModalView):
             self.on_change()
 
 
-__all__ = ["RenameView", "BinView"]
+__all__ = ["RenameView", "BinView", "VOICE_NAME_SECONDS", "play_asset"]

@@ -69,6 +69,7 @@ STRINGS: dict[str, dict[str, str]] = {
     "video_not_saved": {"en": "The video could not be saved (the app's log says why).",
                         "ja": "動画を保存できませんでした (理由はアプリのログにあります)。"},
     "rename": {"en": "Name", "ja": "なまえ"},
+    "say_name": {"en": "Say its name", "ja": "なまえを いう"},
     "story_bin": {"en": "Bin", "ja": "ごみばこ"},
     "restore": {"en": "Bring back", "ja": "もどす"},
     "empty_bin": {"en": "Empty the bin", "ja": "ごみばこを 空にする"},

@@ -54,6 +54,9 @@ def test_the_end_of_a_story_and_managing_stories(tmp_path):
     assert r["save_offered_when_forbidden"] is False
     # named by picture (no typing for a child), binned, and brought back by the teacher
     assert r["title_input_for_child"] is False
-    assert r["cover"] == {"picture": "animal", "colour": 5, "voice": None}
+    cover = r["cover"]
+    assert cover["picture"] == "animal" and cover["colour"] == 5
+    assert cover["voice"]["asset"].startswith("narration-") and 0.8 < cover["voice"]["seconds"] < 3.0
+    assert r["name_heard"]  # the tile says the name back
     assert r["binned"] == ["demo-robot-cat"] and r["tiles_after_bin"] == 0
     assert r["restored"] == ["demo-robot-cat"] and r["tiles_after_restore"] == 1

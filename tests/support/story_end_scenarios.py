@@ -9,45 +9,21 @@ exported by the app's exporter in a child process, at 320x180 and 5 fps to stay 
 from __future__ import annotations
 
 import sys
-import time
+
+from narration_scenarios import SOUND_CALLS, FakeSound, tone, waiting  # the sound recorder and the waiting step
 
 drv = sys.modules["__main__"]
-SOUNDS: list[str] = []
-
-
-class FakeSound:
-    def __init__(self, path: str):
-        self.path = path
-
-    def play(self):
-        SOUNDS.append(self.path)
-
-    def stop(self):
-        pass
-
-
-def waiting(check, what: str, seconds: float = 120.0):
-    deadline: list[float] = []
-
-    def step():
-        if not deadline:
-            deadline.append(time.monotonic() + seconds)
-        if check():
-            return None
-        if time.monotonic() > deadline[0]:
-            raise AssertionError(f"waited {seconds:.0f} s for {what}")
-        return "again"
-    return step
-
-
 def story_end_steps(app):
+    import app.ui.narration as narration
     import app.ui.story_end as story_end
+    from app.services.recording import ArraySource
     from app.player.video_export import app_exporter
     from app.services import set_video_saving_allowed
     from app.story import DEMO_STORY_ID
 
     tap, touching, result = drv.tap, drv.touching, drv.result
-    story_end.sound_loader = FakeSound
+    story_end.sound_loader = narration.sound_loader = FakeSound
+    narration.recorder_finder = lambda: (lambda: ArraySource(tone(3.0, 22050), 22050), "")
     app.video_exporter = app_exporter("story", fps=5.0, size=(320, 180))
     play = lambda: app.sm.get_screen("play")  # noqa: E731
 
@@ -59,18 +35,19 @@ def story_end_steps(app):
     yield touching(lambda: tap(play().play_button), until=lambda: play().player.playing)
     yield lambda: result.update(icon_playing=play().play_button.icon, text_playing=play().play_button.text)
     yield lambda: play().player.seek(play().player.duration - 0.2)  # near the end
-    yield waiting(lambda: play().celebration is not None, "the celebration", 20)
+    yield waiting(lambda: play().celebration is not None, "the celebration", 20.0)
     yield lambda: result.update(icon_end=play().play_button.icon, text_end=play().play_button.text,
-                                sounds=list(SOUNDS))
+                                sounds=[path for call, path, *_ in SOUND_CALLS if call == "play"])
     yield lambda: drv.shot("celebration")
-    yield waiting(lambda: play().end_panel is not None, "the end choices", 20)
-    yield lambda: result.update(celebration_frames=None, save_offered=play().end_panel.save_button is not None)
+    yield waiting(lambda: play().end_panel is not None, "the end choices", 20.0)
+    yield lambda: result.update(save_offered=play().end_panel.save_button is not None)
     yield lambda: drv.shot("end_panel")
     yield touching(lambda: tap(play().end_panel.save_button), until=lambda: play().saver is not None
                    and play().saver.view is not None)
-    yield waiting(lambda: play().saver.bar.value > 0, "export progress", 180)
+    yield waiting(lambda: play().saver.bar.value > 0, "export progress", 180.0)
     yield lambda: result.update(progress_seen=[play().saver.bar.value, play().saver.bar.max])
-    yield waiting(lambda: not play().saver.busy and (play().saver.saved or play().saver.error), "the saved video", 240)
+    yield waiting(lambda: not play().saver.busy and (play().saver.saved or play().saver.error), "the saved video",
+                  240.0)
     yield lambda: result.update(saved=play().saver.saved.location if play().saver.saved else None,
                                 save_error=play().saver.error, saved_icon=play().saver.picture.icon)
     yield lambda: drv.shot("saved")
@@ -93,12 +70,20 @@ def story_end_steps(app):
     yield touching(lambda: tap(home().rename_view.picture_buttons["animal"]),
                    until=lambda: home().rename_view.picture == "animal")
     yield touching(lambda: tap(home().rename_view.colour_buttons[5]), until=lambda: home().rename_view.colour == 5)
+    # the name said aloud: the microphone (a 3 s tone played in real time), stopped after about 1 s
+    yield touching(lambda: tap(home().rename_view.mic_button), until=lambda: home().rename_view.recorder is not None)
+    yield waiting(lambda: home().rename_view.recorder.seconds >= 1.0, "a second of voice", 10.0)
     yield lambda: drv.shot("rename")
+    yield touching(lambda: tap(home().rename_view.mic_button), until=lambda: home().rename_view.voice is not None)
     yield touching(lambda: tap(home().rename_view.ok_button),
                    until=lambda: app.store.load_story(DEMO_STORY_ID).cover is not None)
     yield lambda: result.update(cover=app.store.load_story(DEMO_STORY_ID).to_dict()["cover"])
-    yield waiting(lambda: home().rename_view.parent is None, "the rename view to close", 10)
+    yield waiting(lambda: home().rename_view.parent is None, "the rename view to close", 10.0)
     yield lambda: drv.shot("home_named")
+    yield touching(lambda: tap(tile().name_button), until=lambda: any(
+        call == "play" and path.endswith(app.store.load_story(DEMO_STORY_ID).cover.voice.asset)
+        for call, path, *_ in SOUND_CALLS))
+    yield lambda: result.update(name_heard=True)
     yield touching(lambda: tap(tile().bin_button), until=lambda: not app.store.list_stories())
     yield lambda: result.update(binned=[s.id for s in app.store.binned_stories()], tiles_after_bin=len(home().tiles))
     # the teacher's bin brings it back
