@@ -88,8 +88,8 @@ def draw_background(name: str, x: float, y: float, w: float, h: float, dim: floa
             tx, ty = x + ((i * 0.29) % 0.9) * w, y + ((i * 0.47) % 0.85) * h
             Triangle(points=[tx, ty, tx + 0.09 * s, ty, tx + 0.045 * s, ty + 0.13 * s])
     elif name == "sand":
-        for i in range(4):
-            Ellipse(pos=(x + (i * 0.3 - 0.1) * w, y - 0.1 * h + i * 0.04 * h), size=(0.5 * w, 0.25 * h))
+        for i in range(4):  # dunes, inside the picture (a cover tile draws it in a square)
+            Ellipse(pos=(x + i * 0.22 * w, y + i * 0.04 * h), size=(0.34 * w, 0.2 * h))
 
 
 def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, float, float] = (0.15, 0.15, 0.2)) -> None:
