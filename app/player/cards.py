@@ -265,5 +265,6 @@ def with_cards(story: Story, fps: float, size: tuple[int, int], scenes) -> Itera
         yield ending_card(story, i, tail, size)
 
 
-__all__ = ["FILM_SIZE", "FILM_FPS", "TITLE_SECONDS", "ENDING_SECONDS", "card_frames", "with_cards", "Place", "PLACES", "DEFAULT_PLACE", "CHARACTER_COLOURS", "CURTAIN", "place", "sky_picture", "draw_badge",
-           "cast", "title_card", "ending_card"]
+__all__ = ["FILM_SIZE", "FILM_FPS", "TITLE_SECONDS", "ENDING_SECONDS", "card_frames", "with_cards", "Place", "PLACES",
+           "DEFAULT_PLACE", "CHARACTER_COLOURS", "CURTAIN", "HEART", "place", "sky_picture", "draw_badge", "cast",
+           "title_card", "ending_card"]

@@ -80,7 +80,8 @@ from app.story.storage import (
 __all__ = [
     # model
     "STORY_FORMAT_VERSION", "STORY_FORMAT_NAME", "ARCS", "CHARACTER_KINDS", "MOTION_CLASSES", "MARK_KINDS",
-    "BACKGROUNDS", "COVER_PICTURES", "COVER_COLOURS", "Cover", "TABLE_WIDTH_M", "TABLE_DEPTH_M", "MAX_PATH_POINTS", "MAX_SCENES", "MAX_CHARACTERS_PER_SCENE",
+    "BACKGROUNDS", "COVER_PICTURES", "COVER_COLOURS", "Cover",
+    "TABLE_WIDTH_M", "TABLE_DEPTH_M", "MAX_PATH_POINTS", "MAX_SCENES", "MAX_CHARACTERS_PER_SCENE",
     "MAX_TITLE_CHARS", "MAX_SCENE_SECONDS", "StoryError", "new_id", "Mark", "MotionChoice", "Character", "Scene",
     "Story", "Narration", "MAX_NARRATION_SECONDS",
     # narration

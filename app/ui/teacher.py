@@ -303,6 +303,13 @@ class TeacherScreen(Screen):
         bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
         bar.add_widget(IconButton("home", t("home"), on_press=self.leave, size_hint_x=None, width=dp(100)))
         bar.add_widget(big_label(t("sessions"), 24, size_hint_y=1))
+        saving_on = video_saving_allowed(store)  # children may save their story's video (app.ui.story_end)
+        self.video_saving_button = IconButton(
+            "export", f"{t('video_saving_setting')}: {t('on') if saving_on else t('off')}",
+            on_press=self.toggle_video_saving, selected=saving_on, font_size=dp(12), size_hint_x=None, width=dp(170))
+        bar.add_widget(self.video_saving_button)
+        self.bin_button = IconButton("bin", t("story_bin"), on_press=self.open_bin, size_hint_x=None, width=dp(100))
+        bar.add_widget(self.bin_button)
         left.add_widget(bar)
         row = BoxLayout(size_hint_y=None, height=dp(56), spacing=dp(8))
         self.session_name = TextInput(hint_text=t("new_session"), multiline=False, font_size=dp(20))
@@ -356,11 +363,6 @@ class TeacherScreen(Screen):
         self.action_buttons["recording"] = IconButton(
             "teacher", f"{t('recording_setting')}: {t('on') if voice_on else t('off')}",
             on_press=self.toggle_recording, selected=voice_on, font_size=dp(13))
-        saving_on = video_saving_allowed(store)  # children may save their story's video (app.ui.story_end)
-        self.action_buttons["video_saving"] = IconButton(
-            "export", f"{t('video_saving_setting')}: {t('on') if saving_on else t('off')}",
-            on_press=self.toggle_video_saving, selected=saving_on, font_size=dp(13))
-        self.action_buttons["story_bin"] = IconButton("bin", t("story_bin"), on_press=lambda: BinView().open())
         for button in self.action_buttons.values():
             right.add_widget(button)
         # the rig's camera: a device number, or a recording (video file, folder of images)
@@ -436,6 +438,11 @@ class TeacherScreen(Screen):
         store = App.get_running_app().store
         set_video_saving_allowed(store, not video_saving_allowed(store))
         self.refresh()
+
+    def open_bin(self) -> None:
+        """The bin: bring a story back, or delete the binned ones for good (app.ui.story_bin)."""
+        self.bin_view = BinView()
+        self.bin_view.open()
 
     def toggle_act_it_out(self) -> None:
         """Switch the camera feature (*Act it out*) on or off for the class."""

@@ -51,7 +51,7 @@ def test_the_end_of_a_story_and_managing_stories(tmp_path):
     reader = imageio.get_reader(saved)
     assert reader.get_meta_data()["size"] == (320, 180) and reader.get_meta_data().get("audio_codec") == "aac"
     # the teacher's switch removes *save*
-    assert r["save_offered_when_forbidden"] is False
+    assert r["save_offered_when_forbidden"] is False and r["switch_selected_after"] is False
     # named by picture (no typing for a child), binned, and brought back by the teacher
     assert r["title_input_for_child"] is False
     cover = r["cover"]

@@ -18,7 +18,7 @@ def story_end_steps(app):
     import app.ui.story_end as story_end
     from app.services.recording import ArraySource
     from app.player.video_export import app_exporter
-    from app.services import set_video_saving_allowed
+    from app.services import video_saving_allowed
     from app.story import DEMO_STORY_ID
 
     tap, touching, result = drv.tap, drv.touching, drv.result
@@ -32,8 +32,9 @@ def story_end_steps(app):
         app.go("play")
     yield open_play
     yield lambda: result.update(icon_start=play().play_button.icon)
-    yield touching(lambda: tap(play().play_button), until=lambda: play().player.playing)
-    yield lambda: result.update(icon_playing=play().play_button.icon, text_playing=play().play_button.text)
+    # each state is read in the step that sees it (a loaded machine may take longer than the story between steps)
+    yield touching(lambda: tap(play().play_button), until=lambda: play().player.playing and not result.update(
+        icon_playing=play().play_button.icon, text_playing=play().play_button.text))
     yield lambda: play().player.seek(play().player.duration - 0.2)  # near the end
     yield waiting(lambda: play().celebration is not None, "the celebration", 20.0)
     yield lambda: result.update(icon_end=play().play_button.icon, text_end=play().play_button.text,
@@ -52,12 +53,22 @@ def story_end_steps(app):
                                 save_error=play().saver.error, saved_icon=play().saver.picture.icon)
     yield lambda: drv.shot("saved")
     yield touching(lambda: tap(play().saver.close_button), until=lambda: play().saver.view is None)
-    yield touching(lambda: tap(play().end_panel.replay_button), until=lambda: play().player.playing)
-    yield lambda: result.update(icon_replay=play().play_button.icon, end_gone=play().end_panel is None)
-    yield touching(lambda: tap(play().play_button), until=lambda: not play().player.playing)
-    yield lambda: result.update(icon_paused=play().play_button.icon)
-    # the teacher forbids saving: the end offers again and home only
-    yield lambda: set_video_saving_allowed(app.store, False)
+    yield touching(lambda: tap(play().end_panel.replay_button), until=lambda: play().player.playing and not result.update(
+        icon_replay=play().play_button.icon, end_gone=play().end_panel is None))
+    yield lambda: play().player.seek(1.0)  # far from the end, whatever the load
+    yield touching(lambda: tap(play().play_button), until=lambda: not play().player.playing and not result.update(
+        icon_paused=play().play_button.icon))
+    # the teacher forbids saving (teacher mode's switch; the PIN is tested elsewhere): again and home only
+    teacher = lambda: app.sm.get_screen("teacher")  # noqa: E731
+
+    def to_teacher():
+        app.teacher_unlocked = True
+        app.go("teacher")
+    yield to_teacher
+    yield touching(lambda: tap(teacher().video_saving_button), until=lambda: not video_saving_allowed(app.store))
+    yield lambda: result.update(switch_selected_after=teacher().video_saving_button.selected)
+    yield lambda: drv.shot("teacher_switch")
+    yield lambda: app.go("play")
     yield lambda: play().show_end_choices()
     yield lambda: result.update(save_offered_when_forbidden=play().end_panel.save_button is not None)
     yield touching(lambda: tap(play().end_panel.home_button), until=lambda: app.sm.current == "home")
@@ -87,12 +98,15 @@ def story_end_steps(app):
     yield touching(lambda: tap(tile().bin_button), until=lambda: not app.store.list_stories())
     yield lambda: result.update(binned=[s.id for s in app.store.binned_stories()], tiles_after_bin=len(home().tiles))
     # the teacher's bin brings it back
-    from app.ui.story_bin import BinView
-    views: list = []
-    yield lambda: views.append(BinView(on_change=home().refresh)) or views[0].open()
-    yield touching(lambda: tap(views[0].restore_buttons[DEMO_STORY_ID]), until=lambda: bool(app.store.list_stories()))
+    yield to_teacher
+    yield touching(lambda: tap(teacher().bin_button), until=lambda: getattr(teacher(), "bin_view", None) is not None
+                   and teacher().bin_view.parent is not None)
+    yield lambda: drv.shot("bin")
+    yield touching(lambda: tap(teacher().bin_view.restore_buttons[DEMO_STORY_ID]),
+                   until=lambda: bool(app.store.list_stories()))
+    yield lambda: teacher().bin_view.dismiss()
+    yield lambda: app.go("home")
     yield lambda: result.update(restored=[s.id for s in app.store.list_stories()], tiles_after_restore=len(home().tiles))
-    yield lambda: views[0].dismiss()
     yield drv.finish
 
 
