@@ -53,13 +53,28 @@ class Celebration(Widget):
         self.t = 0.0
         self.frames = 0
         self._event = Clock.schedule_interval(self._tick, 1 / 30)
+        self.bind(pos=lambda *_: self.draw_at(self.t), size=lambda *_: self.draw_at(self.t))
         self.sound_played = play_chime()
 
     def _tick(self, dt: float) -> None:
         self.t += dt
         self.frames += 1
+        self.draw_at(self.t)
+        if self.t >= CELEBRATION_SECONDS:
+            self.finish()
+
+    def finish(self) -> None:
+        """Stop the animation and go on (to the end choices)."""
+        self.stop()
+        if self.on_done:
+            self.on_done()
+
+    def draw_at(self, t: float) -> None:
+        """Draw the confetti as it is ``t`` seconds after the burst (real time: a slow
+        frame skips ahead rather than slowing the celebration down)."""
+        self.t = t
         self.canvas.clear()
-        bits = confetti(self.t)
+        bits = confetti(t)
         with self.canvas:
             for (x, y), colour, angle, s in zip(bits["xy"], bits["colour"], bits["angle"], bits["size"]):
                 px, py, a = self.x + x * self.width, self.y + y * self.height, s * self.height
@@ -68,10 +83,6 @@ class Celebration(Widget):
                 Rotate(angle=math.degrees(angle), origin=(px, py))
                 Rectangle(pos=(px - a, py - 0.45 * a), size=(2 * a, 0.9 * a))
                 PopMatrix()
-        if self.t >= CELEBRATION_SECONDS:
-            self.stop()
-            if self.on_done:
-                self.on_done()
 
     def stop(self) -> None:
         if self._event is not None:

@@ -36,10 +36,20 @@ def story_end_steps(app):
     yield touching(lambda: tap(play().play_button), until=lambda: play().player.playing and not result.update(
         icon_playing=play().play_button.icon, text_playing=play().play_button.text))
     yield lambda: play().player.seek(play().player.duration - 0.2)  # near the end
-    yield waiting(lambda: play().celebration is not None, "the celebration", 20.0)
-    yield lambda: result.update(icon_end=play().play_button.icon, text_end=play().play_button.text,
-                                sounds=[path for call, path, *_ in SOUND_CALLS if call == "play"])
+
+    def celebrating():
+        """Seen: hold the confetti at 0.5 s for the screenshot (frames come slowly under load)."""
+        c = play().celebration
+        if c is None:
+            return False
+        c.stop()
+        c.draw_at(0.5)
+        result.update(icon_end=play().play_button.icon, text_end=play().play_button.text, celebration_frames=c.frames,
+                      sounds=[path for call, path, *_ in SOUND_CALLS if call == "play"])
+        return True
+    yield waiting(celebrating, "the celebration", 20.0)
     yield lambda: drv.shot("celebration")
+    yield lambda: play().celebration.finish()  # what the end of its 2.5 s does
     yield waiting(lambda: play().end_panel is not None, "the end choices", 20.0)
     yield lambda: result.update(save_offered=play().end_panel.save_button is not None)
     yield lambda: drv.shot("end_panel")
@@ -68,6 +78,7 @@ def story_end_steps(app):
     yield touching(lambda: tap(teacher().video_saving_button), until=lambda: not video_saving_allowed(app.store))
     yield lambda: result.update(switch_selected_after=teacher().video_saving_button.selected)
     yield lambda: drv.shot("teacher_switch")
+    yield lambda: teacher().leave()  # out of teacher mode (locked again), as its Home button does
     yield lambda: app.go("play")
     yield lambda: play().show_end_choices()
     yield lambda: result.update(save_offered_when_forbidden=play().end_panel.save_button is not None)
@@ -105,7 +116,7 @@ def story_end_steps(app):
     yield touching(lambda: tap(teacher().bin_view.restore_buttons[DEMO_STORY_ID]),
                    until=lambda: bool(app.store.list_stories()))
     yield lambda: teacher().bin_view.dismiss()
-    yield lambda: app.go("home")
+    yield lambda: teacher().leave()
     yield lambda: result.update(restored=[s.id for s in app.store.list_stories()], tiles_after_restore=len(home().tiles))
     yield drv.finish
 
