@@ -141,30 +141,23 @@ class VideoSaver:
         self.saved = None
         self.error: str | None = None
         self.view: ModalView | None = None
+        self.starts = 0  # exports started (a second tap while one runs starts none)
 
     @property
     def busy(self) -> bool:
         return self.thread is not None and self.thread.is_alive()
 
     def start(self) -> None:
+        """Save the open story's film; while a save runs, only show its progress again."""
         if self.busy:
+            self.show()
             return
         app = self.app
         story = app.editor.story
         self.saved, self.error = None, None
-        self.view = ModalView(size_hint=(0.6, 0.45), auto_dismiss=False)
-        box = filled(BoxLayout(orientation="vertical", padding=dp(24), spacing=dp(16)), (1, 0.97, 0.9, 1))
-        self.picture = IconView(icon="export")
-        box.add_widget(self.picture)
-        self.bar = ProgressBar(max=1, value=0, size_hint_y=None, height=dp(48))
-        box.add_widget(self.bar)
-        self.note = Label(text="", font_size=dp(14), color=(0.3, 0.3, 0.35, 1), size_hint_y=None, height=dp(24))
-        box.add_widget(self.note)
-        self.close_button = IconButton("home", app.t("back"), on_press=self._close, size_hint_y=None,
-                                       height=dp(64), disabled=True, opacity=0)
-        box.add_widget(self.close_button)
-        self.view.add_widget(box)
-        self.view.open()
+        self.starts += 1
+        self._build_view()
+        self.show()
         out = app.export_dir / f"story_{story.id}.mp4"
         exporter, gallery_dir = app.video_exporter, app.export_dir
 
@@ -182,6 +175,34 @@ class VideoSaver:
         self.thread = threading.Thread(target=work, name="storybeam-save-video", daemon=True)
         self.thread.start()
 
+    def _build_view(self) -> None:
+        """The film picture, the bar, a line for grown-ups and *back* (always there: a
+        child is never stuck here; the save goes on behind, and its tick comes back)."""
+        self.view = ModalView(size_hint=(0.6, 0.45), auto_dismiss=False)
+        box = filled(BoxLayout(orientation="vertical", padding=dp(24), spacing=dp(16)), (1, 0.97, 0.9, 1))
+        self.picture = IconView(icon="export")
+        box.add_widget(self.picture)
+        self.bar = ProgressBar(max=1, value=0, size_hint_y=None, height=dp(48))
+        box.add_widget(self.bar)
+        self.note = Label(text="", font_size=dp(14), color=(0.3, 0.3, 0.35, 1), size_hint_y=None, height=dp(24))
+        box.add_widget(self.note)
+        self.close_button = IconButton("home", self.app.t("back"), on_press=self.hide, size_hint_y=None,
+                                       height=dp(64))
+        box.add_widget(self.close_button)
+        self.view.add_widget(box)
+
+    @property
+    def showing(self) -> bool:
+        return self.view is not None and self.view.parent is not None
+
+    def show(self) -> None:
+        if self.view is not None and not self.showing:
+            self.view.open()
+
+    def hide(self) -> None:
+        if self.showing:
+            self.view.dismiss(animation=False)  # gone at once: a tap on *save* right after shows it again
+
     def _progress(self, done: int, total: int) -> None:
         self.bar.max = max(total, 1)
         self.bar.value = min(done, total)
@@ -193,17 +214,12 @@ class VideoSaver:
         # one short sentence for the grown-ups (where to find it, no path); the child sees the picture
         where = "video_saved_android" if platform == "android" else "video_saved"
         self.note.text = self.app.t(where) if saved is not None else self.app.t("video_not_saved")
-        self.close_button.disabled, self.close_button.opacity = False, 1
+        self.show()  # the tick (or the cross) comes back if the child had closed the progress
         if saved is not None and platform == "android":
             try:
                 gallery_for(platform, self.app.export_dir).share(saved)
             except Exception as exc:  # noqa: BLE001 - a share sheet that cannot open: the video is saved anyway
                 log.warning("share sheet: %s", exc)
-
-    def _close(self) -> None:
-        if self.view is not None:
-            self.view.dismiss()
-            self.view = None
 
 
 __all__ = ["Celebration", "EndPanel", "VideoSaver", "can_save_video", "play_chime"]

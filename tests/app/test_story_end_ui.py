@@ -45,6 +45,7 @@ def test_the_end_of_a_story_and_managing_stories(tmp_path):
     assert confetti.sum() > 200
     # saving: offered, progress shown, the film in the videos folder, a tick for the child
     assert r["save_offered"] and r["progress_seen"][0] > 0
+    assert r["busy_after_close"] and r["exports_started"] == 1  # back while saving: the save goes on
     assert r["save_error"] is None and r["saved_icon"] == "tick"
     saved = Path(r["saved"])
     assert saved.parent == videos / "StoryBeam" and saved.is_file()

@@ -9,6 +9,7 @@ exported by the app's exporter in a child process, at 320x180 and 5 fps to stay 
 from __future__ import annotations
 
 import sys
+import threading
 
 from narration_scenarios import SOUND_CALLS, FakeSound, tone, waiting  # the sound recorder and the waiting step
 
@@ -24,7 +25,13 @@ def story_end_steps(app):
     tap, touching, result = drv.tap, drv.touching, drv.result
     story_end.sound_loader = narration.sound_loader = FakeSound
     narration.recorder_finder = lambda: (lambda: ArraySource(tone(3.0, 22050), 22050), "")
-    app.video_exporter = app_exporter("story", fps=5.0, size=(320, 180))
+    film = app_exporter("story", fps=5.0, size=(320, 180))
+    gate = threading.Event()  # the export waits for it: the steps below need it still running
+
+    def gated_export(story, path, progress=None):
+        gate.wait(120)
+        return film(story, path, progress)
+    app.video_exporter = gated_export
     play = lambda: app.sm.get_screen("play")  # noqa: E731
 
     def open_play():
@@ -54,7 +61,12 @@ def story_end_steps(app):
     yield lambda: result.update(save_offered=play().end_panel.save_button is not None)
     yield lambda: drv.shot("end_panel")
     yield touching(lambda: tap(play().end_panel.save_button), until=lambda: play().saver is not None
-                   and play().saver.view is not None)
+                   and play().saver.showing)
+    # never stuck: *back* closes the progress while the film is made; *save* again shows it (no second export)
+    yield touching(lambda: tap(play().saver.close_button), until=lambda: not play().saver.showing)
+    yield lambda: result.update(busy_after_close=play().saver.busy)
+    yield touching(lambda: tap(play().end_panel.save_button), until=lambda: play().saver.showing)
+    yield lambda: result.update(exports_started=play().saver.starts) or gate.set()
     yield waiting(lambda: play().saver.bar.value > 0, "export progress", 180.0)
     yield lambda: result.update(progress_seen=[play().saver.bar.value, play().saver.bar.max])
     yield waiting(lambda: not play().saver.busy and (play().saver.saved or play().saver.error), "the saved video",
@@ -62,7 +74,7 @@ def story_end_steps(app):
     yield lambda: result.update(saved=play().saver.saved.location if play().saver.saved else None,
                                 save_error=play().saver.error, saved_icon=play().saver.picture.icon)
     yield lambda: drv.shot("saved")
-    yield touching(lambda: tap(play().saver.close_button), until=lambda: play().saver.view is None)
+    yield touching(lambda: tap(play().saver.close_button), until=lambda: not play().saver.showing)
     yield touching(lambda: tap(play().end_panel.replay_button), until=lambda: play().player.playing and not result.update(
         icon_replay=play().play_button.icon, end_gone=play().end_panel is None))
     yield lambda: play().player.seek(1.0)  # far from the end, whatever the load
