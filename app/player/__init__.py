@@ -11,8 +11,11 @@ Light modules (numpy and the story only; imported here, safe on Android and at s
   renderer and its GL context; the newest request wins;
 * :mod:`app.player.app_renderer` -- ``AppRenderer``: the render thread's one renderer,
   serving the Play preview (a ``Scene``) and the stage (a ``StageJob``);
-* :mod:`app.player.video_export` -- the teacher's MP4 export (3-D in a child process, or
-  the top-down 2-D fallback).
+* :mod:`app.player.video_export` -- the MP4 export: the story film by default (3-D in a
+  child process, or the top-down 2-D fallback between the same cards);
+* :mod:`app.player.cards` -- the film's drawn pictures: the places' skies, title and
+  ending cards (Pillow, imported on use);
+* :mod:`app.player.celebration` -- the ending's chime and confetti (Play and the film).
 
 3-D modules (retargeting, OpenCV and :mod:`ar.scene` at load -- no pyrender: the preview
 and the stage describe frames as :class:`ar.scene.SceneDescription` s, which Kivy GL draws
@@ -24,6 +27,7 @@ where 3-D is wanted):
   laid on its path (shared by the preview, the stage and the export);
 * :mod:`app.player.preview` -- ``ScenePreviewRenderer``: the Play preview from above the table;
 * :mod:`app.player.stage` -- ``StageRenderer``: the story through the tracked projector rig;
+* :mod:`app.player.story_film` -- ``StoryFilm``: the story film's frames, its camera framing the cast;
 * :mod:`app.player.demo_pipeline` -- ``storybeam demo`` / ``render --demo``: retrieve,
   animate and render through the synthetic hand-held rig.
 """
@@ -45,10 +49,14 @@ from app.player.video_export import (
 )
 from app.player.video_export import (
     AUDIO_RATE,
+    FILM_FPS,
+    FILM_SIZE,
+    RIG_FPS,
     ExportResult,
     VideoExportError,
     app_exporter,
     available,
+    default_fps,
     has_narration,
     mux_audio,
     story_audio,
@@ -69,5 +77,5 @@ __all__ = [
     # video export
     "EXPORT_VIEWS", "VideoExportError", "ExportResult", "available", "frame_count", "story_frames",
     "story_frames_3d", "export_story_mp4", "export_in_subprocess", "app_exporter", "read_story",
-    "AUDIO_RATE", "has_narration", "story_audio", "mux_audio",
+    "AUDIO_RATE", "has_narration", "story_audio", "mux_audio", "FILM_SIZE", "FILM_FPS", "RIG_FPS", "default_fps",
 ]

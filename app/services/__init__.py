@@ -14,6 +14,8 @@
   (``retrieval.library.ActSearch``); no frame is kept;
 * :mod:`app.services.background` -- ``BackgroundLoad``: work done once on a background
   thread (the search indexes), with callbacks when it has ended;
+* :mod:`app.services.gallery` -- saving a story's video where the family finds it (the
+  desktop's videos folder, Android's Movies collection through MediaStore) and sharing it;
 * :mod:`app.services.recording` -- recording a scene's narration (Android AudioRecord
   through pyjnius, sounddevice on a desktop) into a crash-safe ``.part`` file;
 * :mod:`app.services.speech` -- spoken prompts (Android TextToSpeech, espeak-ng on a
@@ -41,6 +43,16 @@ from app.services.act_it_out import (
 )
 from app.services.calibration_wizard import CalibrationStep, CalibrationWizard, GrayCodeWizard
 from app.services.catalog import ClipInfo, MotionCatalog
+from app.services.gallery import (
+    VIDEO_SAVE_SETTING,
+    DesktopGallery,
+    Gallery,
+    GalleryError,
+    SavedVideo,
+    gallery_for,
+    set_video_saving_allowed,
+    video_saving_allowed,
+)
 from app.services.recording import (
     RECORD_RATE,
     ArraySource,
@@ -72,4 +84,6 @@ __all__ = [
     "set_act_it_out_allowed", "ACT_SETTING", "STEP_BACK", "LIFT_HEAD", "NO_BODY", "SKELETON_BONES",
     "ChunkRecorder", "ChunkSource", "ArraySource", "RecordingError", "RECORD_RATE", "find_recorder", "discard_stale",
     "Speaker", "SilentSpeaker", "EspeakSpeaker", "find_speaker",
+    "Gallery", "DesktopGallery", "GalleryError", "SavedVideo", "gallery_for", "VIDEO_SAVE_SETTING",
+    "video_saving_allowed", "set_video_saving_allowed",
 ]

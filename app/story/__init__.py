@@ -21,6 +21,8 @@ from app.story.model import (
     ARCS,
     BACKGROUNDS,
     CHARACTER_KINDS,
+    COVER_COLOURS,
+    COVER_PICTURES,
     MARK_KINDS,
     MAX_CHARACTERS_PER_SCENE,
     MAX_NARRATION_SECONDS,
@@ -34,6 +36,7 @@ from app.story.model import (
     TABLE_DEPTH_M,
     TABLE_WIDTH_M,
     Character,
+    Cover,
     Mark,
     MotionChoice,
     Narration,
@@ -85,7 +88,8 @@ from app.story.storage import (
 __all__ = [
     # model
     "STORY_FORMAT_VERSION", "STORY_FORMAT_NAME", "ARCS", "CHARACTER_KINDS", "MOTION_CLASSES", "MARK_KINDS",
-    "BACKGROUNDS", "TABLE_WIDTH_M", "TABLE_DEPTH_M", "MAX_PATH_POINTS", "MAX_SCENES", "MAX_CHARACTERS_PER_SCENE",
+    "BACKGROUNDS", "COVER_PICTURES", "COVER_COLOURS", "Cover",
+    "TABLE_WIDTH_M", "TABLE_DEPTH_M", "MAX_PATH_POINTS", "MAX_SCENES", "MAX_CHARACTERS_PER_SCENE",
     "MAX_TITLE_CHARS", "MAX_SCENE_SECONDS", "StoryError", "new_id", "Mark", "MotionChoice", "Character", "Scene",
     "Story", "Narration", "MAX_NARRATION_SECONDS",
     # narration

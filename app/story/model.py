@@ -278,14 +278,48 @@ class Scene:
         return cls(background=background, characters=characters, part=part, id=sid, narration=narration)
 
 
+#: What a story's name can be for a child who cannot type: a picture (drawn by
+#: ``app.ui.art.draw_icon`` and ``app.player.cards``) on one of these colours (RGB 0..255).
+COVER_PICTURES = CHARACTER_KINDS + BACKGROUNDS
+COVER_COLOURS: tuple[tuple[int, int, int], ...] = (
+    (255, 89, 94), (255, 146, 76), (255, 202, 58), (138, 201, 38),
+    (25, 170, 160), (25, 130, 196), (106, 76, 147), (255, 112, 166))
+
+
+@dataclass
+class Cover:
+    """A story's name by picture: ``picture`` (one of :data:`COVER_PICTURES`) on colour
+    ``colour`` (an index into :data:`COVER_COLOURS`), and optionally ``voice``, the name
+    said aloud (a recorded asset, like a narration)."""
+
+    picture: str
+    colour: int = 0
+    voice: Narration | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"picture": self.picture, "colour": self.colour,
+                "voice": self.voice.to_dict() if self.voice is not None else None}
+
+    @classmethod
+    def from_dict(cls, data: Any, where: str = "cover") -> "Cover":
+        picture = _get(data, "picture", where, str)
+        _require(picture in COVER_PICTURES, f"{where}.picture", f"unknown picture '{picture}'")
+        colour = _get(data, "colour", where, int)
+        _require(0 <= colour < len(COVER_COLOURS), f"{where}.colour", "out of range")
+        voice = data.get("voice")
+        return cls(picture, colour, None if voice is None else Narration.from_dict(voice, f"{where}.voice"))
+
+
 @dataclass
 class Story:
-    """A story: a title, an arc and an ordered list of scenes."""
+    """A story: a title, an arc, an ordered list of scenes and, optionally, a cover (its
+    name by picture and voice)."""
 
     title: str = ""
     arc: str = "short"
     scenes: list[Scene] = field(default_factory=list)
     id: str = field(default_factory=new_id)
+    cover: Cover | None = None
 
     @classmethod
     def new(cls, arc: str = "short", title: str = "") -> "Story":
@@ -317,6 +351,7 @@ class Story:
             "title": self.title,
             "arc": self.arc,
             "scenes": [s.to_dict() for s in self.scenes],
+            **({"cover": self.cover.to_dict()} if self.cover is not None else {}),
         }
 
     @classmethod
@@ -337,4 +372,5 @@ class Story:
         _require(len(raw_scenes) <= MAX_SCENES, f"{where}.scenes", f"more than {MAX_SCENES} scenes")
         scenes = [Scene.from_dict(s, f"{where}.scenes[{i}]") for i, s in enumerate(raw_scenes)]
         _require(len({s.id for s in scenes}) == len(scenes), f"{where}.scenes", "duplicate scene id")
-        return cls(title=title, arc=arc, scenes=scenes, id=sid)
+        cover = None if data.get("cover") is None else Cover.from_dict(data["cover"], f"{where}.cover")
+        return cls(title=title, arc=arc, scenes=scenes, id=sid, cover=cover)

@@ -376,8 +376,11 @@ def load_narration(store: AssetStore, story: Story, scene_id: str) -> Audio | No
 
 
 def referenced_assets(story: Story) -> set[str]:
-    """Asset names of the story's narrations."""
-    return {s.narration.asset for s in story.scenes if s.narration is not None}
+    """Asset names of the story's narrations (and of its name said aloud, its cover's voice)."""
+    names = {s.narration.asset for s in story.scenes if s.narration is not None}
+    if story.cover is not None and story.cover.voice is not None:
+        names.add(story.cover.voice.asset)
+    return names
 
 
 def prune_narrations(store: AssetStore, story: Story) -> int:

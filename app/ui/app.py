@@ -114,7 +114,7 @@ class StoryBeamApp(App):
         self.renderer_factory = renderer_factory
         self.renderer = None
         self.video_exporter = None
-        self.video_view = "camera"  # teacher MP4s: what the audience sees on the table
+        self.video_view = "story"  # MP4s: the story film (app.player.story_film); "camera" is the rig's view
         self.store: ProfileStore | None = None
         self.storage_problem: str | None = None
         #: the profile refused at start (kept where it was) and its last good copy, if any

@@ -88,8 +88,8 @@ def draw_background(name: str, x: float, y: float, w: float, h: float, dim: floa
             tx, ty = x + ((i * 0.29) % 0.9) * w, y + ((i * 0.47) % 0.85) * h
             Triangle(points=[tx, ty, tx + 0.09 * s, ty, tx + 0.045 * s, ty + 0.13 * s])
     elif name == "sand":
-        for i in range(4):
-            Ellipse(pos=(x + (i * 0.3 - 0.1) * w, y - 0.1 * h + i * 0.04 * h), size=(0.5 * w, 0.25 * h))
+        for i in range(4):  # dunes, inside the picture (a cover tile draws it in a square)
+            Ellipse(pos=(x + i * 0.22 * w, y + i * 0.04 * h), size=(0.34 * w, 0.2 * h))
 
 
 def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, float, float] = (0.15, 0.15, 0.2)) -> None:
@@ -192,13 +192,6 @@ def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, f
         Ellipse(pos=P(0.2, 0.2), size=(0.6 * s, 0.6 * s))
     elif name == "stop":
         Rectangle(pos=P(0.24, 0.24), size=(0.52 * s, 0.52 * s))
-    elif name == "keep":  # a tick
-        Color(0.15, 0.6, 0.25)
-        Line(points=[*P(0.15, 0.5), *P(0.4, 0.22), *P(0.88, 0.8)], width=lw * 1.5, cap="round", joint="round")
-    elif name == "voice":  # a microphone
-        RoundedRectangle(pos=P(0.38, 0.42), size=(0.24 * s, 0.46 * s), radius=[0.12 * s])
-        Line(circle=(*P(0.5, 0.55), 0.22 * s, 90, 270), width=lw)
-        Line(points=[*P(0.5, 0.33), *P(0.5, 0.12), *P(0.34, 0.12), *P(0.66, 0.12)], width=lw)
     elif name == "similar":  # "more like this": a figure and a fainter one like it beside it
         head, strips = _POSES["walk"]
         for du, alpha in ((0.42, 0.45), (0.0, 1.0)):
@@ -222,6 +215,22 @@ def draw_icon(name: str, x: float, y: float, size: float, colour: tuple[float, f
             for du, dv in ((-0.07, -0.05), (0.07, -0.05), (0.0, 0.07)):
                 cx, cy = P(cu + du, cv + dv)
                 Ellipse(pos=(cx - 0.04 * s, cy - 0.04 * s), size=(0.08 * s, 0.08 * s))
+    elif name in ("tick", "keep"):  # done, saved, keep this
+        Line(points=[*P(0.12, 0.5), *P(0.4, 0.2), *P(0.9, 0.82)], width=lw * 1.6, cap="round", joint="round")
+    elif name == "bin":  # the story bin: a can with a lid
+        Rectangle(pos=P(0.12, 0.74), size=(0.76 * s, 0.08 * s))
+        Rectangle(pos=P(0.4, 0.82), size=(0.2 * s, 0.06 * s))
+        Line(points=[*P(0.2, 0.7), *P(0.27, 0.08), *P(0.73, 0.08), *P(0.8, 0.7)], width=lw, joint="round")
+        for u in (0.38, 0.5, 0.62):
+            Line(points=[*P(u, 0.6), *P(u, 0.18)], width=lw * 0.6)
+    elif name in ("mic", "voice"):  # a microphone: a voice to record
+        RoundedRectangle(pos=P(0.36, 0.4), size=(0.28 * s, 0.5 * s), radius=[0.14 * s])
+        Line(ellipse=(*P(0.24, 0.22), 0.52 * s, 0.52 * s, 90, 270), width=lw)
+        Line(points=[*P(0.5, 0.22), *P(0.5, 0.08)], width=lw)
+        Line(points=[*P(0.32, 0.08), *P(0.68, 0.08)], width=lw, cap="round")
+    elif name == "rename":  # a pencil
+        Line(points=[*P(0.2, 0.2), *P(0.78, 0.78)], width=lw * 2.2, cap="none")
+        Triangle(points=[*P(0.1, 0.1), *P(0.3, 0.16), *P(0.16, 0.3)])
     elif name in ("sky", "grass", "night", "sea", "castle", "forest", "space", "sand"):
         draw_background(name, x, y, s, s)
     else:  # unknown: a plain dot, never an empty button

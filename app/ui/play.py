@@ -32,6 +32,7 @@ from kivy.uix.widget import Widget
 from app.story import Story
 from app.ui.gl import PROJECTOR_SUPERSAMPLE, KivyGLRenderer
 from app.ui.narration import NarrationPlayback
+from app.ui.story_end import Celebration, EndPanel, VideoSaver, can_save_video
 from app.ui.table_view import TableView
 from app.ui.widgets import BUTTON_DP, IconButton, filled
 
@@ -70,6 +71,8 @@ class _Player:
         self.scene_only: str | None = None
         self._event = None
         self.on_time = None
+        self.on_state = None  # called after every play / pause (the controls follow the state)
+        self.on_end = None  # called when playing reaches the end
         self.narration = NarrationPlayback()  # the scene's voice, in step with the time line
         self.gl: KivyGLRenderer | None = None  # draws scene descriptions (made on the first)
         self.drawn_by: str | None = None  # "kivy-gl" / "pyrender": who drew the last 3-D frame
@@ -127,6 +130,8 @@ class _Player:
             self.narration.update(story.scenes[index], local, True)
         if self._event is None:
             self._event = Clock.schedule_interval(self._tick, 1.0 / FPS)
+        if self.on_state:
+            self.on_state()
 
     def pause(self) -> None:
         self.playing = False
@@ -134,11 +139,15 @@ class _Player:
         if self._event is not None:
             self._event.cancel()
             self._event = None
+        if self.on_state:
+            self.on_state()
 
     def _tick(self, dt: float) -> None:
         self.seek(self.t + dt)
         if self.t >= self.duration:
             self.pause()
+            if self.on_end:
+                self.on_end()
 
 
 class _PlayerScreen(Screen):
@@ -156,14 +165,23 @@ class _PlayerScreen(Screen):
 
 
 class PlayScreen(_PlayerScreen):
-    """Preview with play/pause, a scrubber and scene / whole-story choice."""
+    """Preview with play/pause, a scrubber and scene / whole-story choice. The Play/Pause
+    button always shows what a tap will do (the picture and word follow the player's
+    state); the end of the story brings the celebration and then *again*, *home* and
+    (when the teacher allows it) *save the video* (:mod:`app.ui.story_end`)."""
 
+    celebration: Celebration | None = None
+    end_panel: EndPanel | None = None
+    saver: VideoSaver | None = None
 
     def refresh(self) -> None:
         app = App.get_running_app()
         t = app.t
         self.clear_widgets()
-        root = filled(BoxLayout(orientation="vertical", padding=dp(8), spacing=dp(8)), (0.15, 0.15, 0.2, 1))
+        self.celebration = self.end_panel = None
+        self.layer = FloatLayout()
+        root = filled(BoxLayout(orientation="vertical", padding=dp(8), spacing=dp(8), size_hint=(1, 1),
+                                pos_hint={"x": 0, "y": 0}), (0.15, 0.15, 0.2, 1))
         self.table = TableView(mode="preview")
         self.player = _Player(self, self.table, use_3d=True)
         bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
@@ -175,6 +193,8 @@ class PlayScreen(_PlayerScreen):
         self.scrubber = Slider(min=0, max=max(self.player.duration, 0.01), value=0, cursor_size=(dp(56), dp(56)))
         self.scrubber.bind(value=self._scrubbed)
         self.player.on_time = self._time_changed
+        self.player.on_state = self.sync_controls
+        self.player.on_end = self.celebrate
         bar.add_widget(self.scrubber)
         self.scene_button = IconButton("walk", t("play_scene"), on_press=lambda: self.set_scope(True),
                                        size_hint_x=None, width=dp(120))
@@ -184,24 +204,73 @@ class PlayScreen(_PlayerScreen):
         bar.add_widget(self.story_button)
         root.add_widget(self.table)
         root.add_widget(bar)
-        self.add_widget(root)
+        self.layer.add_widget(root)
+        self.add_widget(self.layer)
         self.player.seek(0.0)
+        self.sync_controls()
+
+    def on_leave(self, *args):
+        self.clear_end()
+        return super().on_leave(*args)
 
     def set_scope(self, scene_only: bool) -> None:
         app = App.get_running_app()
+        self.clear_end()
         self.player.scene_only = app.current_scene_id if scene_only else None
         self.scene_button.selected, self.story_button.selected = scene_only, not scene_only
         self.scrubber.max = max(self.player.duration, 0.01)
         self.player.seek(0.0)
 
     def toggle(self) -> None:
-        t = App.get_running_app().t
         if self.player.playing:
             self.player.pause()
         else:
+            self.clear_end()
             self.player.play()
-        self.play_button.icon = "pause" if self.player.playing else "play"
-        self.play_button.text = t("pause") if self.player.playing else t("play")
+
+    def sync_controls(self) -> None:
+        """The Play/Pause button shows what a tap does now."""
+        t = App.get_running_app().t
+        playing = self.player.playing
+        self.play_button.icon = "pause" if playing else "play"
+        self.play_button.text = t("pause") if playing else t("play")
+
+    # -- the end -----------------------------------------------------------------------
+    def celebrate(self) -> None:
+        """The story (or scene) has ended: confetti and the chime, then the three choices."""
+        self.clear_end()
+        self.celebration = Celebration(on_done=self.show_end_choices, size_hint=(1, 1), pos_hint={"x": 0, "y": 0})
+        self.layer.add_widget(self.celebration)
+
+    def show_end_choices(self) -> None:
+        app = App.get_running_app()
+        if self.celebration is not None:
+            self.layer.remove_widget(self.celebration)
+            self.celebration = None
+        save = self.save_video if can_save_video(app) and self.player.scene_only is None else None
+        self.end_panel = filled(EndPanel(self.replay, app.go_home, save, size_hint=(0.7, 0.32),
+                                         pos_hint={"center_x": 0.5, "center_y": 0.55}), (1, 0.97, 0.9, 0.95))
+        self.layer.add_widget(self.end_panel)
+
+    def clear_end(self) -> None:
+        if self.celebration is not None:
+            self.celebration.stop()
+            self.layer.remove_widget(self.celebration)
+            self.celebration = None
+        if self.end_panel is not None:
+            self.layer.remove_widget(self.end_panel)
+            self.end_panel = None
+
+    def replay(self) -> None:
+        self.clear_end()
+        self.player.seek(0.0)
+        self.player.play()
+
+    def save_video(self) -> None:
+        app = App.get_running_app()
+        if self.saver is None:
+            self.saver = VideoSaver(app)
+        self.saver.start()
 
     def _scrubbed(self, slider: Slider, value: float) -> None:
         if abs(value - self.player.t) > 1e-3:
@@ -209,9 +278,6 @@ class PlayScreen(_PlayerScreen):
 
     def _time_changed(self, t: float) -> None:
         self.scrubber.value = t
-        if not self.player.playing:
-            app = App.get_running_app()
-            self.play_button.icon, self.play_button.text = "play", app.t("play")
 
 
 class ProjectorScreen(_PlayerScreen):

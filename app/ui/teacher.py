@@ -26,11 +26,14 @@ from kivy.uix.textinput import TextInput
 from kivy.uix.widget import Widget
 
 from app.player.app_renderer import CAMERA_SETTING, DEFAULT_CAMERA, check_camera_choice
-from app.services import CalibrationWizard, GrayCodeWizard, act_it_out_allowed, set_act_it_out_allowed
+from app.services import (CalibrationWizard, GrayCodeWizard, act_it_out_allowed, set_act_it_out_allowed,
+                          set_video_saving_allowed, video_saving_allowed)
 from app.story import RECOVERY_CODE_DIGITS, GrownUpQuestion, StorageError, valid_pin
 from app.ui.import_picker import ImportPicker
 from app.ui.narration import RECORDING_SETTING, recording_allowed
 from app.ui.number_words import in_words
+from app.ui.story_bin import BinView
+from app.ui.strings import tr
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
 from retrieval.errors import StoryBeamError
 
@@ -318,6 +321,13 @@ class TeacherScreen(Screen):
         bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
         bar.add_widget(IconButton("home", t("home"), on_press=self.leave, size_hint_x=None, width=dp(100)))
         bar.add_widget(big_label(t("sessions"), 24, size_hint_y=1))
+        saving_on = video_saving_allowed(store)  # children may save their story's video (app.ui.story_end)
+        self.video_saving_button = IconButton(
+            "export", f"{t('video_saving_setting')}: {t('on') if saving_on else t('off')}",
+            on_press=self.toggle_video_saving, selected=saving_on, font_size=dp(12), size_hint_x=None, width=dp(170))
+        bar.add_widget(self.video_saving_button)
+        self.bin_button = IconButton("bin", t("story_bin"), on_press=self.open_bin, size_hint_x=None, width=dp(100))
+        bar.add_widget(self.bin_button)
         left.add_widget(bar)
         row = BoxLayout(size_hint_y=None, height=dp(56), spacing=dp(8))
         self.session_name = TextInput(hint_text=t("new_session"), multiline=False, font_size=dp(20))
@@ -443,6 +453,16 @@ class TeacherScreen(Screen):
         store = App.get_running_app().store
         store.set_setting(RECORDING_SETTING, "off" if recording_allowed(store) else "on")
         self.refresh()
+
+    def toggle_video_saving(self) -> None:
+        store = App.get_running_app().store
+        set_video_saving_allowed(store, not video_saving_allowed(store))
+        self.refresh()
+
+    def open_bin(self) -> None:
+        """The bin: bring a story back, or delete the binned ones for good (app.ui.story_bin)."""
+        self.bin_view = BinView()
+        self.bin_view.open()
 
     def toggle_act_it_out(self) -> None:
         """Switch the camera feature (*Act it out*) on or off for the class."""

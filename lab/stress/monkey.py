@@ -12,9 +12,10 @@ Checked:
   monkey wraps each action; Kivy's ExceptionManager catches the rest and counts them);
 * **stuck states**: the main loop stops ticking for 10 s (a watchdog thread), a popup
   stays open for over 20 s, or a screen other than home offers no button at all;
-* **lost stories**: every ``save_story``/``delete_story`` the app makes is recorded;
-  at the end the profile is reopened and every story must equal its last save, and
-  deleted ones must be gone.
+* **lost stories**: every ``save_story``/``delete_story`` (and ``rename_story``,
+  ``empty_bin``) the app makes is recorded; at the end the profile is reopened and every
+  story must equal its last save (on the home screen or in the bin), and deleted ones
+  must be gone.
 
 With ``teacher=True`` the monkey works **behind the teacher PIN**: the profile has a PIN,
 and the monkey gets in the way a teacher does, by tapping the PIN on the real pad (again
@@ -203,7 +204,24 @@ def _main(db: Path, out: Path, seconds: float, seed: int,
                 saved[story_id] = None
                 report["deletes"] += 1
 
+            real_rename, real_empty = self.store.rename_story, self.store.empty_bin
+
+            def rename_story(story_id, title=None, cover=None):  # a rename is a save of the whole story
+                story = real_rename(story_id, title, cover)
+                saved[story.id] = story.to_dict()
+                report["saves"] += 1
+                return story
+
+            def empty_bin():  # the teacher deletes the binned stories for good
+                binned = [s.id for s in self.store.binned_stories()]
+                n = real_empty()
+                for sid in binned:
+                    saved[sid] = None
+                report["deletes"] += len(binned)
+                return n
+
             self.store.save_story, self.store.delete_story = save_story, delete_story
+            self.store.rename_story, self.store.empty_bin = rename_story, empty_bin
             return root
 
         def on_start(self):
@@ -338,7 +356,8 @@ def _main(db: Path, out: Path, seconds: float, seed: int,
     used_db = Path(getattr(app, "db_path", db))
     try:
         with ProfileStore(used_db) as store:
-            present = {s.id for s in store.list_stories()}
+            # a story in the bin is not lost: it is there until the teacher empties the bin
+            present = {s.id for s in store.list_stories()} | {s.id for s in store.binned_stories()}
             for sid, body in saved.items():
                 if body is None:
                     report["stories_lost"] += sid in present  # a deleted story came back

@@ -149,12 +149,16 @@ def workload(root: Path, acks: Path, seed: int, steps: int, weaken: str = "", fo
             store.put_asset(sid, name, data)
             mark("A", "assets", key, digest(data))
             assets[sid][name] = data
-        elif r < 0.57:  # delete a story
+        elif r < 0.57:  # delete a story: at once, or the child's way (to the bin, then the teacher empties it)
             sid = rng.choice(sorted(stories))
             for name in assets.get(sid, {}):
                 mark("I", "assets", f"{sid}/{name}", "*")  # a deleted story's files: anything goes
             mark("I", "stories", sid, "-")
-            store.delete_story(sid)
+            if rng.random() < 0.5:
+                store.delete_story(sid)
+            else:
+                store.bin_story(sid)
+                store.empty_bin()
             mark("A", "stories", sid, "-")
             del stories[sid]
             assets.pop(sid, None)

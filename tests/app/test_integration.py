@@ -71,7 +71,8 @@ def test_story_mp4_shows_3d_characters_walking_scene_after_scene(tmp_path):
         pytest.skip(available())
     story, fps = _two_scene_story(), 8.0
     seen = []
-    result = export_in_subprocess(story, tmp_path / "story.mp4", fps=fps, progress=lambda d, n: seen.append((d, n)))
+    result = export_in_subprocess(story, tmp_path / "story.mp4", fps=fps, view="camera",
+                                  progress=lambda d, n: seen.append((d, n)))
     total = frame_count(story, fps)
     assert result.mode == "camera" and not result.note  # the 3-D camera view, not the 2-D fallback
     assert seen[-1] == (total, total) and len(seen) == total  # progress for every frame
@@ -224,16 +225,21 @@ def test_export_falls_back_to_2d_and_says_why_when_3d_cannot_render(tmp_path, mo
     if video_export.available():
         pytest.skip(video_export.available())
 
-    def no_gl(story, fps, view):
+    def no_gl(story, fps, view, size=None):
         raise RuntimeError("eglInitialize failed")
         yield  # a generator, like the real one
 
     monkeypatch.setattr(video_export, "story_frames_3d", no_gl)
     story = _two_scene_story()
-    result = video_export.export_story_mp4(story, tmp_path / "s.mp4", fps=5)
+    result = video_export.export_story_mp4(story, tmp_path / "s.mp4", fps=5, view="camera")
     assert result.mode == "2d" and "eglInitialize failed" in result.note and "2-D" in result.note
     frames = [f for f in imageio.get_reader(result.path)]
     assert len(frames) == video_export.frame_count(story, 5) == result.frames
+    # the story film (the default view) falls back too, and keeps its title and ending cards
+    film = video_export.export_story_mp4(story, tmp_path / "f.mp4", fps=5, size=(320, 180))
+    assert film.mode == "2d" and "eglInitialize failed" in film.note
+    assert film.frames == video_export.frame_count(story, 5, "story") == video_export.frame_count(story, 5) + sum(
+        video_export.card_frames(5))
 
 
 @pytest.mark.slow  # a video export in a child process

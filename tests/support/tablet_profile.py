@@ -43,7 +43,8 @@ HARNESS_MODULES = ("pytest", "_pytest", "pluggy", "iniconfig", "py", "pygments",
                    "coverage", "$coverage")  # "$coverage": a name coverage.py's debug output puts in sys.modules
 #: StoryBeam and the test support modules
 OWN_MODULES = ("app", "ar", "retrieval", "main", "tests", "ui_driver", "ui_touch", "ui_scenarios", "tablet_scenarios",
-               "narration_scenarios", "act_scenarios", "child_scenarios", "tablet_profile")
+               "narration_scenarios", "act_scenarios", "child_scenarios", "story_end_scenarios", "gate_scenarios",
+               "tablet_profile")
 
 
 def is_third_party(top: str) -> bool:

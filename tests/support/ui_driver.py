@@ -110,6 +110,9 @@ from gate_scenarios import SCENARIOS as GATE_SCENARIOS  # noqa: E402  (issue 29:
 from gate_scenarios import SETUPS as GATE_SETUPS  # noqa: E402
 
 SCENARIOS.update(GATE_SCENARIOS)
+from story_end_scenarios import SCENARIOS as STORY_END_SCENARIOS  # noqa: E402  (issue 29: the end, own file)
+
+SCENARIOS.update(STORY_END_SCENARIOS)
 app_ref: list = []
 
 
@@ -224,7 +227,7 @@ class DriverApp(StoryBeamApp):
 if __name__ == "__main__":
     lang = os.environ.get("STORYBEAM_TEST_LANG", "en")
     lang = None if lang == "device" else lang  # "device": no language asked for, as on a first launch
-    demo = SCENARIO in ("editor", "language", "play3d", "projector3d", "thumbs")
+    demo = SCENARIO in ("editor", "language", "play3d", "projector3d", "thumbs", "story_end")
     if SCENARIO == "teacher":  # one saved story for the exports (made outside the UI)
         from app.story.demo_story import demo_story
         from app.story.storage import ProfileStore

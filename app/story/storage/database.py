@@ -67,6 +67,9 @@ MIGRATIONS: list[tuple[str, ...]] = [
                story_id TEXT,
                detail TEXT NOT NULL DEFAULT '')""",
     ),
+    (  # 3: the bin (issue 29): a deleted story keeps its row and assets until the teacher empties the bin
+        "ALTER TABLE stories ADD COLUMN binned REAL",
+    ),
 ]
 SCHEMA_VERSION = len(MIGRATIONS)
 

@@ -111,6 +111,11 @@ class ProfileStore:
     has_story = forward("_stories", StoryShelf.has)
     list_stories = forward("_stories", StoryShelf.summaries)
     delete_story = forward("_stories", StoryShelf.delete)
+    bin_story = forward("_stories", StoryShelf.to_bin)
+    restore_story = forward("_stories", StoryShelf.restore)
+    binned_stories = forward("_stories", StoryShelf.binned)
+    empty_bin = forward("_stories", StoryShelf.empty_bin)
+    rename_story = forward("_stories", StoryShelf.rename)
 
     put_asset = forward("_assets", AssetFolder.put)
     story_assets_dir = forward("_assets", AssetFolder.story_folder)
