@@ -11,7 +11,7 @@ py=.venv/bin/python
 [ -x "$py" ] || py=python3
 printf "%-9s %-14s %-4s %s\n" screen size lang clipped
 for size in 1024x600@1 1280x800@1 1280x800@1.33 2560x1600@2 2560x1600@3; do
-  for screen in home editor play teacher; do
+  for screen in home editor play teacher pin; do
     for lang in en ja; do
       wh=${size%@*}; d=${size#*@}; png="$out/${screen}_${wh}_${d}_${lang}.png"
       rm -f "$out/profile.db"*

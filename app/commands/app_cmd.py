@@ -149,9 +149,11 @@ def run(args: argparse.Namespace) -> int:
 
     class _LaunchedApp(StoryBeamApp):
         def build(self):
-            # a screenshot of the teacher's screen (--screenshot only, checked above): no PIN pad
-            self.teacher_unlocked = screen == "teacher"
-            return super().build()
+            root = super().build()
+            if screen == "teacher":  # a screenshot of the teacher's screen (--screenshot only, checked above)
+                self.teacher_unlocked = True
+                self.sm.current = "teacher"
+            return root
 
         def on_start(self):
             Window.bind(on_flip=self._first_flip)

@@ -34,7 +34,7 @@ from app.ui.narration import RECORDING_SETTING, recording_allowed
 from app.ui.number_words import in_words
 from app.ui.story_bin import BinView
 from app.ui.strings import tr
-from app.ui.widgets import BUTTON_DP, IconButton, big_label, filled
+from app.ui.widgets import BUTTON_DP, IconButton, big_label, compact_screen, filled
 from retrieval.errors import StoryBeamError
 
 log = logging.getLogger(__name__)
@@ -149,8 +149,10 @@ class PinScreen(Screen):
         if not hasattr(self, "mode"):  # the app's first screen is refreshed without on_pre_enter
             self._start_over()
         self.clear_widgets()
-        root = filled(BoxLayout(orientation="vertical", padding=dp(24), spacing=dp(10)), (0.9, 0.93, 0.98, 1))
-        bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(10))
+        compact = compact_screen()  # a small tablet: smaller type, so the pad keeps 48-dp keys
+        root = filled(BoxLayout(orientation="vertical", padding=dp(12 if compact else 24), spacing=dp(10)),
+                      (0.9, 0.93, 0.98, 1))
+        bar = BoxLayout(size_hint_y=None, height=dp(60 if compact else BUTTON_DP), spacing=dp(10))
         if self.mode != "code":  # the code is shown once: the only way on is "I wrote it down"
             bar.add_widget(IconButton("home", t("back"), on_press=app.go_home, size_hint_x=None, width=dp(100)))
         self.title_label = big_label(self._title(), 24, size_hint_y=1)
@@ -163,13 +165,14 @@ class PinScreen(Screen):
         root.add_widget(bar)
         self.question_label = None
         if self.mode == "gate":
-            self.question_label = big_label(question_text(self.question, app.lang), 28, colour=(0.1, 0.2, 0.6, 1),
-                                            halign="center", valign="middle", height=dp(80))
-            self.question_label.bind(width=lambda lbl, w: setattr(lbl, "text_size", (w, None)))
+            self.question_label = big_label(question_text(self.question, app.lang), 22 if compact else 28,
+                                            colour=(0.1, 0.2, 0.6, 1), halign="center", valign="middle", height=dp(80))
+            self.question_label.bind(width=lambda lbl, w: setattr(lbl, "text_size", (w, None)),
+                                     texture_size=lambda lbl, ts: setattr(lbl, "height", max(dp(56), ts[1] + dp(8))))
             root.add_widget(self.question_label)
-        self.display = big_label(self._shown(), 36)
-        self.message = big_label(self.note, 18, colour=(0.8, 0.1, 0.1, 1), halign="center", valign="middle",
-                                 height=dp(70))
+        self.display = big_label(self._shown(), 28 if compact else 36)
+        self.message = big_label(self.note, 16 if compact else 18, colour=(0.8, 0.1, 0.1, 1), halign="center",
+                                 valign="middle", height=dp(44 if compact else 70))
         self.message.bind(width=lambda lbl, w: setattr(lbl, "text_size", (w, None)))
         root.add_widget(self.display)
         root.add_widget(self.message)

@@ -29,14 +29,14 @@ def _shot(tmp_path: Path, screen: str, size: str, density: float, lang: str) -> 
 # the two tightest tablets for every screen, and the largest for the busiest one
 CASES = [(screen, "1024x600", 1.0, "en") for screen in ("home", "editor", "play", "teacher")] + \
         [(screen, "1280x800", 1.33, "ja") for screen in ("home", "editor", "play", "teacher")] + \
-        [("editor", "2560x1600", 2.0, "ja")]
+        [("editor", "2560x1600", 2.0, "ja"), ("pin", "2560x1600", 3.0, "en")]
 
 
 @pytest.mark.slow  # one app per screenshot, in a child process
 @pytest.mark.parametrize("screen,size,density,lang", CASES)
 def test_no_widget_is_cut_off_or_covered(tmp_path, screen, size, density, lang):
     info = _shot(tmp_path, screen, size, density, lang)
-    assert info["screen"] == screen and info["size"] == [int(v) for v in size.split("x")]
+    assert info["screen"] == screen and info["size"] == [int(v) for v in size.split("x")]  # not the PIN pad
     assert info["density"] == pytest.approx(density)
     assert info["clipped_widgets"] == [], json.dumps(info["clipped_widgets"], indent=1)
 
