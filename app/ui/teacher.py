@@ -323,7 +323,10 @@ class TeacherScreen(Screen):
         left = BoxLayout(orientation="vertical", spacing=dp(8))
         bar = BoxLayout(size_hint_y=None, height=dp(BUTTON_DP), spacing=dp(8))
         bar.add_widget(IconButton("home", t("home"), on_press=self.leave, size_hint_x=None, width=dp(100)))
-        bar.add_widget(big_label(t("sessions"), 24, size_hint_y=1))
+        title = big_label(t("sessions"), 18 if compact_screen() else 24, size_hint_y=1, halign="center",
+                          valign="middle")
+        title.bind(width=lambda lbl, w: setattr(lbl, "text_size", (w, None)))  # two lines where it is narrow
+        bar.add_widget(title)
         saving_on = video_saving_allowed(store)  # children may save their story's video (app.ui.story_end)
         self.video_saving_button = IconButton(
             "export", f"{t('video_saving_setting')}: {t('on') if saving_on else t('off')}",
