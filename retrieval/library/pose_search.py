@@ -33,8 +33,9 @@ import numpy as np
 from retrieval.errors import StoryBeamError
 from retrieval.features import get_feature_set
 from retrieval.library.clip import Clip, Match
-from retrieval.library.dataset import load_dataset
+from retrieval.library.dataset import clip_from_motion, load_dataset
 from retrieval.library.index import MotionIndex
+from retrieval.motion import Motion
 
 #: Clips the code search hands to the refinement by default.
 SHORTLIST = 32
@@ -100,6 +101,16 @@ class PoseSearch:
 
     def __len__(self) -> int:
         return len(self.index)
+
+    def motion_pose(self, motion: Motion, frame: int) -> np.ndarray:
+        """The (dim,) pose query of frame ``frame`` of ``motion`` (numbered in the file's
+        own frames): the motion's features at the index's rate and feature set (its own
+        floor, :func:`~retrieval.library.clip_from_motion`), the row nearest that frame's
+        time — what ``storybeam search --pose FILE:FRAME`` asks."""
+        if not 0 <= frame < motion.n_frames:
+            raise StoryBeamError(f"pose: frame {frame} is outside the motion's frames 0..{motion.n_frames - 1}")
+        feats = clip_from_motion(motion, "", "", self.index.fps, self.index.feature_set).features
+        return feats[min(int(round(frame * self.index.fps / motion.fps)), len(feats) - 1)]
 
     def search(self, pose: np.ndarray, k: int = 5, shortlist: int = SHORTLIST,
                exclude: str | None = None) -> list[Match]:
