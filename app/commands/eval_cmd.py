@@ -55,6 +55,9 @@ def register(subparsers) -> None:
                    help="weight of the turning rate in the storybeam features (ablation; default the set's)")
     p.add_argument("--normalise", choices=["legs", "arms", "chain"], default=None,
                    help="how the storybeam features divide lengths (ablation; default the set's)")
+    p.add_argument("--body", choices=["source", "canonical"], default=None,
+                   help="features on the file's own skeleton or re-posed onto the canonical body "
+                        "(ablation; default the set's)")
     p.add_argument("--centre", choices=["on", "off"], default=None,
                    help="subtract each storybeam feature's mean over the clip (ablation; default the set's)")
     p.add_argument("--identity", action="store_true",
@@ -199,7 +202,8 @@ def _misses_line(misses: list[dict], key: str) -> str:
 def run_identity(args, rows, clips, feature_set: str) -> int:
     """``--identity`` and/or ``--pose-identity``, with or without ``--skeleton-from``:
     run, print a line each (and the misses), write the JSON."""
-    from retrieval.library import SHORTLIST, load_dataset  # deferred: numpy/numba stack only for this command
+    # deferred: numpy/numba stack only for this command
+    from retrieval.library import SHORTLIST, load_dataset, pose_feature_set
     # deferred: the experiment layer, only for this command
     from lab.experiment import other_skeleton_trials, pose_identity, skeleton_identity
 
@@ -222,15 +226,17 @@ def run_identity(args, rows, clips, feature_set: str) -> int:
         print(f"{n} trials of {args.skeleton_from} against {len(clips)} clips: same trial first: "
               f"storybeam find {round(ident['find_top1'] * n)}/{n} ({100 * ident['find_top1']:.1f} %), "
               f"class ranking {round(ident['search_top1'] * n)}/{n} ({100 * ident['search_top1']:.1f} %)")
-        if ident["misses"]:
-            print("  misses (trial->found by find): " + _misses_line(ident["misses"], "find"))
+        missed = [m for m in ident["misses"] if m["find"] != m["trial"]]
+        if missed:
+            print("  find's misses (trial->found): " + _misses_line(missed, "find"))
         if ident["not_in_library"]:
             print(f"  not in --data: {', '.join(ident['not_in_library'])}")
         out["skeleton_identity"] = ident
     if args.pose_identity:
         # the pose search's own library: its feature set at this rate (PoseSearch.build's)
-        pose_clips = clips if feature_set == "mr17" else load_dataset(
-            args.data, fps=args.fps, rows=rows, cache=not args.no_cache,
+        pose_set = pose_feature_set(args.body)
+        pose_clips = clips if feature_set == pose_set else load_dataset(
+            args.data, fps=args.fps, feature_set=pose_set, rows=rows, cache=not args.no_cache,
             progress=progress_bar("loading pose features", "clip", not args.quiet))
         pose = pose_identity(rows, pose_clips, others, args.dims,
                              progress_bar("pose queries", "trial", not args.quiet))
@@ -279,13 +285,15 @@ def run(args) -> int:
     feature_set = "mr17"
     if any(m not in SEED_METHODS for m in methods) and args.features == "storybeam":
         feature_set = "storybeam"
-        if args.heading_weight is not None or args.normalise is not None or args.centre is not None:
+        if (args.heading_weight is not None or args.normalise is not None or args.centre is not None
+                or args.body is not None):
             base = get_feature_set("storybeam")
             w = base.specs[-1].weight if args.heading_weight is None else args.heading_weight
             norm = args.normalise or base.normalise
             centre = base.centre if args.centre is None else args.centre == "on"
+            body = args.body or base.body
             feature_set = register_feature_set(storybeam_feature_set(
-                w, f"storybeam-w{w:g}-{norm}-{'centred' if centre else 'raw'}", norm, centre)).name
+                w, f"storybeam-w{w:g}-{norm}-{'centred' if centre else 'raw'}-{body}", norm, centre, body)).name
     started = time.perf_counter()
     rows = read_labels(args.data)
     unlabelled = [r for r in rows if not r.label]

@@ -25,13 +25,14 @@ accuracy.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from retrieval.errors import StoryBeamError
-from retrieval.features import get_feature_set
+from retrieval.features import get_feature_set, register_feature_set
 from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import clip_from_motion, load_dataset
 from retrieval.library.index import MotionIndex
@@ -40,7 +41,17 @@ from retrieval.motion import Motion
 #: Clips the code search hands to the refinement by default.
 SHORTLIST = 32
 
-_FOOT_JOINTS = ("left_ankle", "left_toe", "right_ankle", "right_toe")
+#: The feature set a pose search indexes by default (:meth:`PoseSearch.build`).
+POSE_FEATURE_SET = "mr17"
+
+
+def pose_feature_set(body: str | None = None) -> str:
+    """The name of the pose search's feature set (:data:`POSE_FEATURE_SET`), or of its
+    variant on another ``body`` ("source" / "canonical", registered on first use)."""
+    base = get_feature_set(POSE_FEATURE_SET)
+    if body is None or body == base.body:
+        return base.name
+    return register_feature_set(replace(base, name=f"{base.name}-{body}", body=body)).name
 
 
 def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size: float, floor: float = 0.0,
@@ -63,7 +74,7 @@ def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size
     fs = get_feature_set(feature_set)
     # a still posture: a rate feature (the heading's) is 0, whatever the frame rate
     out = fs.from_positions(pos[None], dict(joint_map), body_size, 1.0)[0]
-    lowest = min(pos[joint_map[j], 1] for j in _FOOT_JOINTS)
+    lowest = min(pos[joint_map[j], 1] for j in fs.floor_joints)
     for k, spec in enumerate(fs.specs):
         if spec.kind == "height":
             out[k] += (lowest - floor) / body_size * getattr(spec, "weight", 1.0)
@@ -97,7 +108,7 @@ class PoseSearch:
     @classmethod
     def build(cls, folder: str | Path, dims: int = 6, fps: float = 30.0, backend: str = "auto") -> "PoseSearch":
         """A pose search over every clip of a labelled folder at ``fps``."""
-        return cls.from_clips(load_dataset(folder, fps=fps), dims, backend)
+        return cls.from_clips(load_dataset(folder, fps=fps, feature_set=POSE_FEATURE_SET), dims, backend)
 
     def __len__(self) -> int:
         return len(self.index)

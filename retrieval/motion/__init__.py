@@ -9,10 +9,14 @@ The bottom layer of StoryBeam: it imports nothing else of StoryBeam but
 from __future__ import annotations
 
 from retrieval.motion.body import (
+    CANONICAL_BONES,
+    CANONICAL_INDEX,
     CANONICAL_JOINTS,
     CANONICAL_PARENTS,
     JointMapError,
     canonical_joint_map,
+    canonical_pose,
+    canonical_rest,
 )
 from retrieval.motion.topology import TopologyError, topology_joint_map
 from retrieval.motion.formats import (
@@ -59,6 +63,10 @@ __all__ = [
     "positions",
     "rest_positions",
     "resample",
+    "CANONICAL_BONES",
+    "CANONICAL_INDEX",
+    "canonical_pose",
+    "canonical_rest",
     "CANONICAL_JOINTS",
     "CANONICAL_PARENTS",
     "JointMapError",
