@@ -238,7 +238,7 @@ def run_identity(args, rows, clips, feature_set: str) -> int:
         pose_clips = clips if feature_set == pose_set else load_dataset(
             args.data, fps=args.fps, feature_set=pose_set, rows=rows, cache=not args.no_cache,
             progress=progress_bar("loading pose features", "clip", not args.quiet))
-        pose = pose_identity(rows, pose_clips, others, args.dims,
+        pose = pose_identity(rows, pose_clips, others, args.dims, pose_set,
                              progress_bar("pose queries", "trial", not args.quiet))
         n = pose["poses"]
         text = (f"{n} poses (1/4, 1/2, 3/4 of {pose['trials']} trials"

@@ -28,6 +28,7 @@ import numpy as np
 
 from retrieval.errors import StoryBeamError
 from retrieval.library import (
+    POSE_FEATURE_SET,
     Clip,
     LabelRow,
     PoseSearch,
@@ -116,12 +117,12 @@ def _pose_rows(search: PoseSearch, motion: Motion) -> list[tuple[int, np.ndarray
 
 
 def pose_identity(rows: Sequence[LabelRow], pose_clips: Sequence[Clip], others: Sequence[OtherTrial] | None,
-                  dims: int, progress: Progress = None) -> dict:
+                  dims: int, feature_set: str = POSE_FEATURE_SET, progress: Progress = None) -> dict:
     """Poses at ¼, ½, ¾ of each trial as pose-search queries (see the module docstring):
     the share whose top clip has the trial's class and (with ``others``) is the trial
     itself; every miss with its file frame and what was found. ``pose_clips`` are the
-    library's clips in the pose search's feature set."""
-    search = PoseSearch.from_clips(pose_clips, dims)
+    library's clips in ``feature_set`` (the pose search's)."""
+    search = PoseSearch.from_clips(pose_clips, dims, feature_set=feature_set)
     if others is None:
         pairs = [(i, OtherTrial(r.trial, r.file, r.skeleton)) for i, r in enumerate(rows)]
         unmatched: list[str] = []

@@ -370,6 +370,12 @@ def available_feature_sets() -> list[str]:
 
 register_feature_set(MR17)
 
+#: MR17 on the canonical body (:attr:`FeatureSet.body`): the same 17 columns, every frame
+#: re-posed onto the canonical bone lengths first (issue 31: a pose on another skeleton).
+MR17_CANONICAL = register_feature_set(FeatureSet(
+    name="mr17-canonical", specs=MR17.specs, body="canonical",
+    description="MR17 on the canonical body (the source's bone directions, canonical bone lengths)"))
+
 
 def motion_features(motion: Motion, feature_set: str | FeatureSet = "mr17") -> np.ndarray:
     """(T, dim) features of a motion: forward kinematics, canonical joints, leg length."""

@@ -25,14 +25,13 @@ accuracy.
 """
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from retrieval.errors import StoryBeamError
-from retrieval.features import get_feature_set, register_feature_set
+from retrieval.features import get_feature_set
 from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import clip_from_motion, load_dataset
 from retrieval.library.index import MotionIndex
@@ -41,21 +40,25 @@ from retrieval.motion import Motion
 #: Clips the code search hands to the refinement by default.
 SHORTLIST = 32
 
-#: The feature set a pose search indexes by default (:meth:`PoseSearch.build`).
-POSE_FEATURE_SET = "mr17"
+#: The feature set a pose search indexes by default (:meth:`PoseSearch.build`): MR17 on
+#: the canonical body, so a pose from another skeleton (the app's posable figure, another
+#: studio's file) lands where the same posture does in the library (issue 31; the trade
+#: against ``"mr17"`` is measured in docs/notebook/results.md, "Another skeleton").
+POSE_FEATURE_SET = "mr17-canonical"
 
 
 def pose_feature_set(body: str | None = None) -> str:
-    """The name of the pose search's feature set (:data:`POSE_FEATURE_SET`), or of its
-    variant on another ``body`` ("source" / "canonical", registered on first use)."""
-    base = get_feature_set(POSE_FEATURE_SET)
-    if body is None or body == base.body:
-        return base.name
-    return register_feature_set(replace(base, name=f"{base.name}-{body}", body=body)).name
+    """The name of the pose search's feature set (:data:`POSE_FEATURE_SET`), or of MR17
+    on the other ``body`` ("source": ``"mr17"``; "canonical": ``"mr17-canonical"``)."""
+    if body is None:
+        return POSE_FEATURE_SET
+    if body not in ("source", "canonical"):
+        raise StoryBeamError(f"pose search: unknown body {body!r} (source or canonical)")
+    return "mr17" if body == "source" else "mr17-canonical"
 
 
 def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size: float, floor: float = 0.0,
-                  feature_set: str = "mr17") -> np.ndarray:
+                  feature_set: str = POSE_FEATURE_SET) -> np.ndarray:
     """The (dim,) features of one posture: ``positions`` (J, 3) in metres, Y up, the
     floor at height ``floor``.
 
@@ -100,10 +103,13 @@ class PoseSearch:
         self.index = index
 
     @classmethod
-    def from_clips(cls, clips: Sequence[Clip], dims: int = 6, backend: str = "auto") -> "PoseSearch":
+    def from_clips(cls, clips: Sequence[Clip], dims: int = 6, backend: str = "auto",
+                   feature_set: str = POSE_FEATURE_SET) -> "PoseSearch":
         """Index ``clips`` (:meth:`MotionIndex.from_clips`, DTW ``backend``) and keep their
-        features."""
-        return cls(MotionIndex.from_clips(clips, dims, backend=backend), [c.features for c in clips])
+        features; ``feature_set`` names the set they were computed with (the one
+        :meth:`motion_pose` computes a query's features with)."""
+        return cls(MotionIndex.from_clips(clips, dims, feature_set=feature_set, backend=backend),
+                   [c.features for c in clips])
 
     @classmethod
     def build(cls, folder: str | Path, dims: int = 6, fps: float = 30.0, backend: str = "auto") -> "PoseSearch":

@@ -177,10 +177,8 @@ CANONICAL_BONES: dict[str, float] = {
     "upper_spine": 0.33, "head": 0.12, "shoulder_half_width": 0.2, "shoulder_drop": 0.06,
     "upper_arm": 0.35, "forearm": 0.31,
 }
-#: (canonical joint, the joint its bone starts from, the bone's length key) for the
-#: joints :func:`canonical_pose` places along the source's bone direction, trunk first.
-_TRUNK: tuple[tuple[str, str, str], ...] = (
-    ("spine", "hips", "lower_spine"), ("neck", "spine", "upper_spine"), ("head", "neck", "head"))
+#: (canonical joint, the joint its bone starts from, the bone's length key) for the limb
+#: joints :func:`canonical_pose` places along the source's bone direction.
 _LIMBS: tuple[tuple[str, str, str], ...] = (
     ("left_elbow", "left_shoulder", "upper_arm"), ("left_hand", "left_elbow", "forearm"),
     ("right_elbow", "right_shoulder", "upper_arm"), ("right_hand", "right_elbow", "forearm"),
@@ -188,6 +186,10 @@ _LIMBS: tuple[tuple[str, str, str], ...] = (
     ("right_knee", "right_hip", "thigh"), ("right_ankle", "right_knee", "shin"),
     ("right_toe", "right_ankle", "foot"),
 )
+#: Bumped whenever :func:`canonical_pose` changes what it computes: cached features of a
+#: canonical-body set are keyed by it.
+CANONICAL_POSE_VERSION = 2
+
 #: The canonical joint map of :func:`canonical_pose`'s output.
 CANONICAL_INDEX: dict[str, int] = {c: i for i, c in enumerate(CANONICAL_JOINTS)}
 
@@ -203,19 +205,23 @@ def canonical_pose(pos: np.ndarray, joint_map: dict[str, int], leg: float) -> np
     (:data:`CANONICAL_JOINTS` order, :data:`CANONICAL_INDEX`) in leg lengths, doing the
     same posture with the canonical bone lengths (:data:`CANONICAL_BONES`).
 
-    Method: the source gives directions only, never lengths or joint placements — the
-    pelvis centre is the midpoint of the two hip joints (not the file's root or
-    ``Hips`` joint, which rigs place anywhere between the hips and the waist) at the
-    source's position divided by ``leg`` (so a jump rises by the same number of leg
-    lengths); the hip joints sit ``hip_half_width`` either side along the source's
-    hip-to-hip axis; spine, neck and head follow the source's pelvis->spine->neck->head
-    directions; the shoulders sit ``shoulder_half_width`` either side of the neck along
-    the source's shoulder-to-shoulder axis and ``shoulder_drop`` down the chest's axis
-    (so a rig whose neck joint starts lower or higher than its shoulders gives the same
-    shoulders); every limb joint is its parent plus the canonical length along the
-    source's bone direction. What stays rig-dependent is only where a rig puts a joint
-    along a bone direction (a head joint at the eyes or at the top of the neck points
-    the same way from the neck)."""
+    Method: the source gives directions only, never lengths or joint placements, and
+    only between joints every rig places alike — the hip joints, the shoulder joints
+    (the upper arms' starts), the limbs and the head's direction from the shoulders; a
+    rig's spine and neck joints are left out (CMU's own BVH conversion starts its neck
+    at the thorax, 12 cm below the Acclaim original's). The pelvis centre is the
+    midpoint of the two hip joints (not the file's root or ``Hips`` joint, which rigs
+    place anywhere between the hips and the waist), at the source's position divided by
+    ``leg`` (a jump rises by the same number of leg lengths); the hip joints sit
+    ``hip_half_width`` either side along the source's hip-to-hip axis; spine and neck
+    lie on the straight trunk from the pelvis centre towards the source's shoulder
+    centre; the shoulders sit ``shoulder_half_width`` either side of the neck along the
+    source's shoulder-to-shoulder axis and ``shoulder_drop`` down the trunk; the head is
+    ``head`` from the neck along the source's shoulder-centre->head direction (a head
+    joint at the eyes or at the top of the neck points the same way); every limb joint
+    is its parent plus the canonical length along the source's bone direction.
+    What stays rig-dependent is the direction itself where rigs disagree (a toe joint at
+    the ball or at the tip of the foot): see :attr:`FeatureSet.floor_joints`."""
     pos = np.asarray(pos, dtype=np.float64) / leg
     b = CANONICAL_BONES
     out = np.empty((pos.shape[0], len(CANONICAL_JOINTS), 3))
@@ -234,14 +240,15 @@ def canonical_pose(pos: np.ndarray, joint_map: dict[str, int], leg: float) -> np
     put("hips", mid)
     put("left_hip", mid + b["hip_half_width"] * lateral)
     put("right_hip", mid - b["hip_half_width"] * lateral)
-    for joint, start, bone in _TRUNK:
-        start_src = mid if start == "hips" else src(start)
-        put(joint, got(start) + b[bone] * _unit(src(joint) - start_src))
-    chest_up = _unit(got("neck") - got("spine"))
+    shoulder_centre = 0.5 * (src("left_shoulder") + src("right_shoulder"))
+    trunk = _unit(shoulder_centre - mid)
+    put("spine", mid + b["lower_spine"] * trunk)
+    put("neck", got("spine") + b["upper_spine"] * trunk)
+    put("head", got("neck") + b["head"] * _unit(src("head") - shoulder_centre))
     across = src("left_shoulder") - src("right_shoulder")
-    across = _unit(across - np.sum(across * chest_up, axis=-1, keepdims=True) * chest_up)
+    across = _unit(across - np.sum(across * trunk, axis=-1, keepdims=True) * trunk)
     for side, sign in (("left", 1.0), ("right", -1.0)):
-        put(f"{side}_shoulder", got("neck") + sign * b["shoulder_half_width"] * across - b["shoulder_drop"] * chest_up)
+        put(f"{side}_shoulder", got("neck") + sign * b["shoulder_half_width"] * across - b["shoulder_drop"] * trunk)
     for joint, start, bone in _LIMBS:
         put(joint, got(start) + b[bone] * _unit(src(joint) - src(start)))
     return out

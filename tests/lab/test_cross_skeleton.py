@@ -102,14 +102,21 @@ def test_cli_skeleton_from_errors(folders, tmp_path, capsys):
 
 def test_motion_pose_is_the_search_commands_row(folders):
     from retrieval.errors import StoryBeamError
-    from retrieval.library import PoseSearch, clip_from_motion, load_dataset
+    from retrieval.library import PoseSearch, clip_from_motion, load_dataset, pose_feature_set
     from retrieval.motion import load_motion
 
     lib, _ = folders
-    search = PoseSearch.from_clips(load_dataset(lib, fps=30.0), dims=3)
+    search = PoseSearch.from_clips(load_dataset(lib, fps=30.0, feature_set=pose_feature_set()), dims=3)
     motion = load_motion(lib / "run_1.bvh")
     feats = clip_from_motion(motion, "run_1", "", 30.0, search.index.feature_set).features
     assert np.array_equal(search.motion_pose(motion, 20), feats[20])
     assert search.search(search.motion_pose(motion, 20), k=1)[0].trial == "run_1"
     with pytest.raises(StoryBeamError, match="outside the motion's frames"):
         search.motion_pose(motion, motion.n_frames)
+    # a search over another feature set computes its queries in that set
+    assert search.index.feature_set == pose_feature_set() == "mr17-canonical"
+    source = pose_feature_set("source")
+    other = PoseSearch.from_clips(load_dataset(lib, fps=30.0, feature_set=source), dims=3, feature_set=source)
+    assert np.array_equal(other.motion_pose(motion, 20),
+                          clip_from_motion(motion, "run_1", "", 30.0, source).features[20])
+    assert not np.allclose(other.motion_pose(motion, 20), search.motion_pose(motion, 20))
