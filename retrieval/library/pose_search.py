@@ -68,7 +68,9 @@ def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size
     so heights are measured above the given floor instead — a posture with both feet in
     the air (a jump's apex) keeps its height. Every other column does not depend on the
     floor, so the result equals the row of the same frame inside a clip whose floor is
-    ``floor``."""
+    ``floor`` (exactly for a set on the file's body; on the canonical body the shift is
+    the source's ankle height over its leg length, the canonical body's own when the
+    source's thigh and shin are equally long and its pelvis level, close otherwise)."""
     pos = np.asarray(positions, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[1] != 3:
         raise StoryBeamError(f"a pose must be (joints, 3) positions, got shape {pos.shape}")

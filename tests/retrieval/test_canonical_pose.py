@@ -8,49 +8,36 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import retrieval.motion as rm
 from retrieval.features import MR17, FeatureError, get_feature_set
-from retrieval.motion import (
-    CANONICAL_BONES,
-    CANONICAL_INDEX,
-    CANONICAL_JOINTS,
-    CANONICAL_PARENTS,
-    Joint,
-    Motion,
-    Skeleton,
-    canonical_joint_map,
-    canonical_pose,
-    canonical_rest,
-    positions,
-    rest_positions,
-)
 from retrieval.features.relational import leg_length
 from tests.support.synthetic_motion import make_motion, make_skeleton
 
 CANONICAL_MR17 = replace(MR17, name="mr17-canonical-test", body="canonical")
 
 
-def _reproportioned(sk: Skeleton, factors: dict[str, float]) -> Skeleton:
+def _reproportioned(sk: rm.Skeleton, factors: dict[str, float]) -> rm.Skeleton:
     """The same joints and rest directions, some bones longer or shorter (factor per joint:
     its offset from the parent is scaled)."""
-    joints = [Joint(j.name, j.parent, j.offset * factors.get(j.name, 1.0), list(j.channels), j.rotation_order)
+    joints = [rm.Joint(j.name, j.parent, j.offset * factors.get(j.name, 1.0), list(j.channels), j.rotation_order)
               for j in sk.joints]
-    return Skeleton(joints, sk.metres_per_unit, sk.up_axis, "other")
+    return rm.Skeleton(joints, sk.metres_per_unit, sk.up_axis, "other")
 
 
-def _features(motion: Motion, fs) -> np.ndarray:
-    jm = canonical_joint_map(motion.skeleton)
-    return fs.from_positions(positions(motion), jm, leg_length(motion.skeleton, jm), motion.fps,
-                             rest_positions(motion.skeleton))
+def _features(motion: rm.Motion, fs) -> np.ndarray:
+    jm = rm.canonical_joint_map(motion.skeleton)
+    return fs.from_positions(rm.positions(motion), jm, leg_length(motion.skeleton, jm), motion.fps,
+                             rm.rest_positions(motion.skeleton))
 
 
 def test_canonical_rest_has_the_canonical_bone_lengths():
-    rest = canonical_rest()
-    bone = {c: float(np.linalg.norm(rest[CANONICAL_INDEX[c]] - rest[CANONICAL_INDEX[CANONICAL_PARENTS[c]]]))
-            for c in CANONICAL_JOINTS[1:]}
-    assert bone["left_knee"] == pytest.approx(CANONICAL_BONES["thigh"])
+    rest = rm.canonical_rest()
+    bone = {c: float(np.linalg.norm(rest[rm.CANONICAL_INDEX[c]] - rest[rm.CANONICAL_INDEX[rm.CANONICAL_PARENTS[c]]]))
+            for c in rm.CANONICAL_JOINTS[1:]}
+    assert bone["left_knee"] == pytest.approx(rm.CANONICAL_BONES["thigh"])
     assert bone["left_ankle"] + bone["left_knee"] == pytest.approx(1.0)  # lengths are in leg lengths
-    assert bone["right_elbow"] == pytest.approx(CANONICAL_BONES["upper_arm"])
-    assert bone["head"] == pytest.approx(CANONICAL_BONES["head"])
+    assert bone["right_elbow"] == pytest.approx(rm.CANONICAL_BONES["upper_arm"])
+    assert bone["head"] == pytest.approx(rm.CANONICAL_BONES["head"])
 
 
 def test_other_proportions_give_the_same_canonical_pose_and_features():
@@ -62,15 +49,15 @@ def test_other_proportions_give_the_same_canonical_pose_and_features():
                                  "LeftToeBase": 1.6, "RightToeBase": 1.6})
     kw = dict(frames=50, arm_swing=50.0, knee_bend=30.0, bounce=0.05, heading_deg=30.0)
     a, b = make_motion(sk, **kw), make_motion(other, **kw)
-    pa = canonical_pose(positions(a), canonical_joint_map(sk), leg_length(sk))
-    pb = canonical_pose(positions(b), canonical_joint_map(other), leg_length(other))
-    assert pa.shape == (50, len(CANONICAL_JOINTS), 3)
-    hips = CANONICAL_INDEX["hips"]
+    pa = rm.canonical_pose(rm.positions(a), rm.canonical_joint_map(sk), leg_length(sk))
+    pb = rm.canonical_pose(rm.positions(b), rm.canonical_joint_map(other), leg_length(other))
+    assert pa.shape == (50, len(rm.CANONICAL_JOINTS), 3)
+    hips = rm.CANONICAL_INDEX["hips"]
     # the body about its pelvis centre (where the pelvis is depends on the rig's root; heights use the floor)
     np.testing.assert_allclose(pa - pa[:, hips:hips + 1], pb - pb[:, hips:hips + 1], atol=1e-9)
     # the posture is kept: bone lengths are the canonical ones in every frame
-    thigh = np.linalg.norm(pa[:, CANONICAL_INDEX["left_knee"]] - pa[:, CANONICAL_INDEX["left_hip"]], axis=1)
-    np.testing.assert_allclose(thigh, CANONICAL_BONES["thigh"])
+    thigh = np.linalg.norm(pa[:, rm.CANONICAL_INDEX["left_knee"]] - pa[:, rm.CANONICAL_INDEX["left_hip"]], axis=1)
+    np.testing.assert_allclose(thigh, rm.CANONICAL_BONES["thigh"])
     np.testing.assert_allclose(_features(a, CANONICAL_MR17), _features(b, CANONICAL_MR17), atol=1e-9)
     source_gap = np.abs(_features(a, MR17) - _features(b, MR17)).max()
     assert source_gap > 0.1  # what the re-posing removes
@@ -85,8 +72,8 @@ def test_a_different_posture_still_differs():
 
 def test_canonical_body_needs_every_canonical_joint_and_a_known_body():
     sk = make_skeleton()
-    pos = positions(make_motion(sk, frames=5))
-    jm = canonical_joint_map(sk)
+    pos = rm.positions(make_motion(sk, frames=5))
+    jm = rm.canonical_joint_map(sk)
     partial = {k: v for k, v in jm.items() if k != "spine"}
     with pytest.raises(FeatureError, match="re-poses the canonical body: it needs joints spine"):
         CANONICAL_MR17.from_positions(pos, partial, 1.0)
