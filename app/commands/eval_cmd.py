@@ -11,6 +11,12 @@ MR17 + turning rate), ``dtw-storybeam`` (exact DTW on the same features), and th
 ``quantized``, ``quantized-fast``, ``dtw``, ``forbes`` on the 17 MR17 features.
 ``--features mr17`` and ``--heading-weight`` change what the storybeam methods see
 (ablations); ``--shortlist`` how many clips it re-ranks.
+
+Across skeletons (lab/experiment/cross_skeleton.py): ``--identity --skeleton-from DIR``
+takes each file of DIR named like a trial of --data as a clip query (same trial first?);
+``--pose-identity`` the frames at 1/4, 1/2, 3/4 of each trial as ``search --pose``
+queries (same class, and with --skeleton-from same trial); ``--body`` compares the
+file's own body with the canonical one.
 """
 from __future__ import annotations
 
