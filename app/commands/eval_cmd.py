@@ -11,6 +11,12 @@ MR17 + turning rate), ``dtw-storybeam`` (exact DTW on the same features), and th
 ``quantized``, ``quantized-fast``, ``dtw``, ``forbes`` on the 17 MR17 features.
 ``--features mr17`` and ``--heading-weight`` change what the storybeam methods see
 (ablations); ``--shortlist`` how many clips it re-ranks.
+
+Across skeletons (lab/experiment/cross_skeleton.py): ``--identity --skeleton-from DIR``
+takes each file of DIR named like a trial of --data as a clip query (same trial first?);
+``--pose-identity`` the frames at 1/4, 1/2, 3/4 of each trial as ``search --pose``
+queries (same class, and with --skeleton-from same trial); ``--body`` compares the
+file's own body with the canonical one.
 """
 from __future__ import annotations
 
@@ -55,6 +61,9 @@ def register(subparsers) -> None:
                    help="weight of the turning rate in the storybeam features (ablation; default the set's)")
     p.add_argument("--normalise", choices=["legs", "arms", "chain"], default=None,
                    help="how the storybeam features divide lengths (ablation; default the set's)")
+    p.add_argument("--body", choices=["source", "canonical"], default=None,
+                   help="features on the file's own skeleton or re-posed onto the canonical body "
+                        "(ablation; default the set's)")
     p.add_argument("--centre", choices=["on", "off"], default=None,
                    help="subtract each storybeam feature's mean over the clip (ablation; default the set's)")
     p.add_argument("--identity", action="store_true",
@@ -62,6 +71,14 @@ def register(subparsers) -> None:
                         "read it back and count how often the clip finds itself first (storybeam's find, "
                         "its class ranking and the seed's codes)")
     p.add_argument("--identity-fps", type=float, default=50.0, help="frame rate of the written BVH files (default 50)")
+    p.add_argument("--skeleton-from", metavar="DIR",
+                   help="with --identity / --pose-identity: a folder of the same trials on another skeleton "
+                        "(BVH files named by trial, e.g. 07_01.bvh, or a labels.csv), matched to --data by name: "
+                        "each is the query instead of StoryBeam's own round trip")
+    p.add_argument("--pose-identity", action="store_true",
+                   help="instead of the folds: the frames at 1/4, 1/2 and 3/4 of each trial as `search --pose` "
+                        "queries; the top clip's class (and, with --skeleton-from, trial) -- without "
+                        "--skeleton-from the poses come from --data's own files, their trial left out")
     p.add_argument("--shortlist", type=int, default=None,
                    help="clips the storybeam method re-ranks by exact float DTW (default 4)")
     p.add_argument("--band", type=int, default=None, help="Sakoe-Chiba band radius in frames (default none)")
@@ -183,6 +200,66 @@ def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, 
             "storybeam_misses": misses}
 
 
+def _misses_line(misses: list[dict], key: str) -> str:
+    shown = ", ".join(f"{m['trial']}->{m[key]}" for m in misses[:12])
+    return shown + (f", ... ({len(misses)} in all)" if len(misses) > 12 else "")
+
+
+def run_identity(args, rows, clips, feature_set: str) -> int:
+    """``--identity`` and/or ``--pose-identity``, with or without ``--skeleton-from``:
+    run, print a line each (and the misses), write the JSON."""
+    # deferred: numpy/numba stack only for this command
+    from retrieval.library import SHORTLIST, load_dataset, pose_feature_set
+    # deferred: the experiment layer, only for this command
+    from lab.experiment import other_skeleton_trials, pose_identity, skeleton_identity
+
+    out = {"data": str(args.data), "fps": args.fps, "dims": args.dims, "feature_set": feature_set,
+           "skeleton_from": args.skeleton_from}
+    others = other_skeleton_trials(args.skeleton_from) if args.skeleton_from else None
+    if args.identity and others is None:
+        ident = identity_check(rows, clips, args.fps, feature_set, args.identity_fps, args.shortlist, args.dims,
+                               progress_bar("identity round trips", "clip", not args.quiet))
+        print(f"{ident['clips']} clips written as BVH on another skeleton at {args.identity_fps:g} fps and read back: "
+              f"found first: storybeam find {100 * ident['storybeam_find_top1']:.2f} %, "
+              f"storybeam class ranking {100 * ident['storybeam_top1']:.2f} %, "
+              f"quantized {100 * ident['quantized_top1']:.2f} % "
+              f"(mean {ident['quantized_mean_ties_at_best']:.2f} clips tie at the seed's best distance)")
+        out["identity"] = ident
+    elif args.identity:
+        ident = skeleton_identity(rows, clips, others, args.fps, feature_set, args.dims, args.shortlist or SHORTLIST,
+                                  progress_bar("other-skeleton trials", "trial", not args.quiet))
+        n = ident["trials"]
+        print(f"{n} trials of {args.skeleton_from} against {len(clips)} clips: same trial first: "
+              f"storybeam find {round(ident['find_top1'] * n)}/{n} ({100 * ident['find_top1']:.1f} %), "
+              f"class ranking {round(ident['search_top1'] * n)}/{n} ({100 * ident['search_top1']:.1f} %)")
+        missed = [m for m in ident["misses"] if m["find"] != m["trial"]]
+        if missed:
+            print("  find's misses (trial->found): " + _misses_line(missed, "find"))
+        if ident["not_in_library"]:
+            print(f"  not in --data: {', '.join(ident['not_in_library'])}")
+        out["skeleton_identity"] = ident
+    if args.pose_identity:
+        # the pose search's own library: its feature set at this rate (PoseSearch.build's)
+        pose_set = pose_feature_set(args.body)
+        pose_clips = clips if feature_set == pose_set else load_dataset(
+            args.data, fps=args.fps, feature_set=pose_set, rows=rows, cache=not args.no_cache,
+            progress=progress_bar("loading pose features", "clip", not args.quiet))
+        pose = pose_identity(rows, pose_clips, others, args.dims, pose_set,
+                             progress_bar("pose queries", "trial", not args.quiet))
+        n = pose["poses"]
+        text = (f"{n} poses (1/4, 1/2, 3/4 of {pose['trials']} trials"
+                + (f" of {args.skeleton_from}" if others is not None else ", their own trial left out")
+                + f"): top clip of the same class {round(pose['same_class'] * n)}/{n} ({pose['same_class']:.2f})")
+        if others is not None:
+            text += f", the same trial {round(pose['same_trial'] * n)}/{n} ({pose['same_trial']:.2f})"
+        print(text)
+        print("  same class by class: " + ", ".join(f"{c} {v:.2f}" for c, v in pose["per_class"].items()))
+        out["pose_identity"] = pose
+    if args.json_out:
+        write_json_report(args.json_out, out)
+    return 0
+
+
 def run(args) -> int:
     from retrieval.library import load_dataset, read_labels  # deferred: numpy/numba stack only for this command
     # deferred: the experiment layer (numpy, numba kernels) only for this command
@@ -214,17 +291,21 @@ def run(args) -> int:
     feature_set = "mr17"
     if any(m not in SEED_METHODS for m in methods) and args.features == "storybeam":
         feature_set = "storybeam"
-        if args.heading_weight is not None or args.normalise is not None or args.centre is not None:
+        if (args.heading_weight is not None or args.normalise is not None or args.centre is not None
+                or args.body is not None):
             base = get_feature_set("storybeam")
             w = base.specs[-1].weight if args.heading_weight is None else args.heading_weight
             norm = args.normalise or base.normalise
             centre = base.centre if args.centre is None else args.centre == "on"
+            body = args.body or base.body
             feature_set = register_feature_set(storybeam_feature_set(
-                w, f"storybeam-w{w:g}-{norm}-{'centred' if centre else 'raw'}", norm, centre)).name
+                w, f"storybeam-w{w:g}-{norm}-{'centred' if centre else 'raw'}-{body}", norm, centre, body)).name
     started = time.perf_counter()
     rows = read_labels(args.data)
     unlabelled = [r for r in rows if not r.label]
-    if unlabelled and not args.identity:
+    if args.skeleton_from and not (args.identity or args.pose_identity):
+        raise StoryBeamError("--skeleton-from goes with --identity or --pose-identity")
+    if unlabelled and (args.pose_identity or not args.identity):
         raise StoryBeamError(f"{Path(args.data) / 'labels.csv'}, line {unlabelled[0].line}: clip {unlabelled[0].trial!r} "
                              f"has no label ({len(unlabelled)} unlabelled in all): the evaluation needs every clip "
                              "labelled")
@@ -235,20 +316,10 @@ def run(args) -> int:
     if args.subset:
         clips = stratified_subset(clips, args.subset, args.seed)
     motion_seconds = sum(c.seconds for c in clips)
-    if args.identity:
+    if args.identity or args.pose_identity:
         if args.subset:
-            raise StoryBeamError("--identity uses the whole folder: drop --subset")
-        ident = identity_check(rows, clips, args.fps, feature_set, args.identity_fps, args.shortlist, args.dims,
-                               progress_bar("identity round trips", "clip", not args.quiet))
-        print(f"{ident['clips']} clips written as BVH on another skeleton at {args.identity_fps:g} fps and read back: "
-              f"found first: storybeam find {100 * ident['storybeam_find_top1']:.2f} %, "
-              f"storybeam class ranking {100 * ident['storybeam_top1']:.2f} %, "
-              f"quantized {100 * ident['quantized_top1']:.2f} % "
-              f"(mean {ident['quantized_mean_ties_at_best']:.2f} clips tie at the seed's best distance)")
-        if args.json_out:
-            write_json_report(args.json_out, {"data": str(args.data), "fps": args.fps, "dims": args.dims,
-                                              "feature_set": feature_set, "identity": ident})
-        return 0
+            raise StoryBeamError("--identity and --pose-identity use the whole folder: drop --subset")
+        return run_identity(args, rows, clips, feature_set)
     per_split = {}
     for split in splits:
         kw = {"shortlist": args.shortlist} if args.shortlist else {}

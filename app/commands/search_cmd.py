@@ -160,7 +160,7 @@ def run(args) -> int:
 
 def _run_pose(args, data: Path, load_motion) -> int:
     """``--pose FILE:FRAME``: the pose's features, the pose search, the report."""
-    from retrieval.library import MotionIndex, PoseSearch, clip_from_motion  # deferred: loads numba, only to search
+    from retrieval.library import MotionIndex, PoseSearch  # deferred: loads numba, only to search
 
     file, sep, frame_text = args.pose.rpartition(":")
     try:
@@ -178,11 +178,10 @@ def _run_pose(args, data: Path, load_motion) -> int:
     motion = load_motion(path, args.skeleton) if args.skeleton else load_motion(path)
     if frame >= motion.n_frames:
         raise StoryBeamError(f"--pose {path}: frame {frame} is past the last frame ({motion.n_frames - 1})")
-    feats = clip_from_motion(motion, path.stem, "", search.index.fps, search.index.feature_set).features
-    row = min(int(round(frame * search.index.fps / motion.fps)), len(feats) - 1)
-    search.search(feats[row], k=1)  # loads the compiled kernels, outside the timing
+    pose = search.motion_pose(motion, frame)
+    search.search(pose, k=1)  # loads the compiled kernels, outside the timing
     t0 = time.perf_counter()
-    hits = search.search(feats[row], k=args.top)
+    hits = search.search(pose, k=args.top)
     t1 = time.perf_counter()
     report = {
         "query": str(path), "data": str(data), "mode": "pose", "pose_frame": frame,

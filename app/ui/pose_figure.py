@@ -142,11 +142,11 @@ class PoseModel:
             raise ValueError(f"no handle {handle!r} (handles: {', '.join(HANDLES)})")
         self._settle()
 
-    def features(self, feature_set: str = "mr17") -> np.ndarray:
-        """The pose as the library's per-frame features."""
-        from retrieval.library import pose_features  # deferred: the search stack stays off the UI's start-up
+    def features(self, feature_set: str | None = None) -> np.ndarray:
+        """The pose as the library's per-frame features (the pose search's set unless named)."""
+        from retrieval.library import POSE_FEATURE_SET, pose_features  # deferred: the search stack stays off the UI's start-up
         return pose_features(self.positions(), {n: i for i, n in enumerate(CANONICAL_JOINTS)}, LEG, FLOOR,
-                             feature_set)
+                             feature_set or POSE_FEATURE_SET)
 
 
 _BONES = tuple((CANONICAL_JOINTS.index(a), CANONICAL_JOINTS.index(b)) for a, b in (

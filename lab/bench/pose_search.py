@@ -27,13 +27,21 @@ from pathlib import Path
 import numpy as np
 
 from app.progress import progress_bar
-from retrieval.library import CHARACTERISTIC, Clip, PoseSearch, characteristic_frame, load_dataset
+from retrieval.library import (
+    CHARACTERISTIC,
+    POSE_FEATURE_SET,
+    Clip,
+    PoseSearch,
+    characteristic_frame,
+    load_dataset,
+)
 
 
 def run_pose_search_bench(data: str | Path, fps: float = 30.0, dims: int = 6, k: int = 5,
                           progress: bool = True, backend: str = "auto") -> dict:
     """Held-back top-1 class accuracy and search times of pose queries (module docstring)."""
-    clips = load_dataset(data, fps=fps, progress=progress_bar("loading", "clip", progress))
+    clips = load_dataset(data, fps=fps, feature_set=POSE_FEATURE_SET,
+                         progress=progress_bar("loading", "clip", progress))
     search = PoseSearch.from_clips(clips, dims, backend)
     search.search(clips[0].features[0], k=k)  # warm-up: loads the compiled kernels
     per_class: dict[str, list[bool]] = {}

@@ -1,12 +1,19 @@
 """The research's experiment: the method and its baselines behind one matcher interface
 (the seed's quantised DTW, exact DTW on features, Forbes–Fiume) and the k-fold 1-NN
-evaluation."""
+evaluation; the cross-skeleton identity checks."""
 from __future__ import annotations
 
 from lab.experiment.baselines import (
     ExactDTWMatcher,
     ForbesFiumeMatcher,
     kmeans_pp_seeds,
+)
+from lab.experiment.cross_skeleton import (
+    POSE_FRACTIONS,
+    OtherTrial,
+    other_skeleton_trials,
+    pose_identity,
+    skeleton_identity,
 )
 from lab.experiment.evaluation import (
     METHODS,
@@ -57,4 +64,9 @@ __all__ = [
     "plot_sweep",
     "plot_confusion",
     "warm_up",
+    "POSE_FRACTIONS",
+    "OtherTrial",
+    "other_skeleton_trials",
+    "pose_identity",
+    "skeleton_identity",
 ]

@@ -8,6 +8,7 @@ from retrieval.features.kinetic import BODY_PARTS, kinetic_energy, kinetic_energ
 from retrieval.features.pose_vectors import JOINT_WEIGHTS, pose_frames
 from retrieval.features.relational import (
     MR17,
+    MR17_CANONICAL,
     FeatureError,
     FeatureSet,
     FeatureSpec,
@@ -27,6 +28,7 @@ __all__ = [
     "FeatureSpec",
     "FeatureSet",
     "MR17",
+    "MR17_CANONICAL",
     "STORYBEAM",
     "HEADING_WEIGHT",
     "storybeam_feature_set",

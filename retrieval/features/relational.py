@@ -63,10 +63,14 @@ from scipy.ndimage import gaussian_filter1d
 
 from retrieval.errors import StoryBeamError
 from retrieval.motion import (
+    CANONICAL_INDEX,
+    CANONICAL_JOINTS,
     CANONICAL_PARENTS,
     Motion,
     Skeleton,
     canonical_joint_map,
+    canonical_pose,
+    canonical_rest,
     positions,
     rest_positions,
 )
@@ -76,6 +80,7 @@ from retrieval.motion import (
 FLOOR_PERCENTILE = 2.0
 
 _FOOT_JOINTS = ("left_ankle", "left_toe", "right_ankle", "right_toe")
+_ANKLES = ("left_ankle", "right_ankle")
 
 
 class FeatureError(StoryBeamError):
@@ -112,6 +117,11 @@ class FeatureSet:
     #: Subtract each column's mean over the clip (a per-clip constant offset — what a
     #: different skeleton's proportions and joint placement mostly add — cancels).
     centre: bool = False
+    #: "source": the file's own joints and bone lengths; "canonical": every frame first
+    #: re-posed onto the canonical body (:func:`~retrieval.motion.canonical_pose`: the
+    #: source's bone directions at canonical bone lengths), so a skeleton's proportions,
+    #: rest pose and joint placement drop out before any distance is taken.
+    body: str = "source"
 
     @property
     def dim(self) -> int:
@@ -120,6 +130,15 @@ class FeatureSet:
     @property
     def names(self) -> list[str]:
         return [s.name for s in self.specs]
+
+    @property
+    def floor_joints(self) -> tuple[str, ...]:
+        """The joints whose lowest defines the floor of "height" features: ankles and toes
+        on the file's body; the ankles alone on the canonical body, whose toe is a fixed
+        length along the source's ankle->toe direction — a direction rigs disagree on at
+        rest (a flat or a pointed foot), so a standing ankle is the floor's only
+        rig-independent mark."""
+        return _ANKLES if self.body == "canonical" else _FOOT_JOINTS
 
     def joints_used(self) -> set[str]:
         used = {j for s in self.specs for j in s.joints}
@@ -148,6 +167,15 @@ class FeatureSet:
         missing = sorted(self.joints_used() - set(joint_map))
         if missing:
             raise FeatureError(f"feature set {self.name!r} needs joints {', '.join(missing)}")
+        if self.body == "canonical":
+            missing = sorted(set(CANONICAL_JOINTS) - set(joint_map))
+            if missing:
+                raise FeatureError(f"feature set {self.name!r} re-poses the canonical body: it needs joints "
+                                   f"{', '.join(missing)}")
+            pos, joint_map, body_size, rest = canonical_pose(pos, joint_map, body_size), CANONICAL_INDEX, 1.0, \
+                canonical_rest()
+        elif self.body != "source":
+            raise FeatureError(f"feature set {self.name!r}: unknown body {self.body!r} (source or canonical)")
 
         def p(name: str) -> np.ndarray:
             return pos[:, joint_map[name]]
@@ -177,7 +205,7 @@ class FeatureSet:
                 out[:, k] = np.linalg.norm(p(a) - p(b), axis=1)
             elif spec.kind == "height":
                 if floor is None:
-                    floor = clip_floor(np.stack([p(f)[:, 1] for f in _FOOT_JOINTS], axis=1))
+                    floor = clip_floor(np.stack([p(f)[:, 1] for f in self.floor_joints], axis=1))
                 out[:, k] = p(spec.joints[0])[:, 1] - floor
             elif spec.kind == "above":
                 a, b = spec.joints
@@ -341,6 +369,12 @@ def available_feature_sets() -> list[str]:
 
 
 register_feature_set(MR17)
+
+#: MR17 on the canonical body (:attr:`FeatureSet.body`): the same 17 columns, every frame
+#: re-posed onto the canonical bone lengths first (issue 31: a pose on another skeleton).
+MR17_CANONICAL = register_feature_set(FeatureSet(
+    name="mr17-canonical", specs=MR17.specs, body="canonical",
+    description="MR17 on the canonical body (the source's bone directions, canonical bone lengths)"))
 
 
 def motion_features(motion: Motion, feature_set: str | FeatureSet = "mr17") -> np.ndarray:

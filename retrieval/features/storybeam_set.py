@@ -32,18 +32,24 @@ NORMALISE = "legs"
 #: Whether each feature's mean over the clip is subtracted (ablation in docs/notebook/results.md).
 CENTRE = False
 
+#: Which body the distances are taken on: "canonical" re-poses every skeleton onto the
+#: canonical body first (:func:`~retrieval.motion.canonical_pose`; issue 31), "source"
+#: is the file's own.
+BODY = "source"
+
 _TURN_JOINTS = ("left_hip", "right_hip", "left_shoulder", "right_shoulder")
 
 
 def storybeam_feature_set(heading_weight: float = HEADING_WEIGHT, name: str = "storybeam",
-                          normalise: str = NORMALISE, centre: bool = CENTRE) -> FeatureSet:
+                          normalise: str = NORMALISE, centre: bool = CENTRE, body: str = BODY) -> FeatureSet:
     """MR17's pairs plus the turning rate at ``heading_weight``, lengths normalised by
-    ``normalise`` (the registered set uses :data:`HEADING_WEIGHT` and
-    :data:`NORMALISE`; other values are for ablations)."""
+    ``normalise``, on the ``body`` (the registered set uses :data:`HEADING_WEIGHT`,
+    :data:`NORMALISE` and :data:`BODY`; other values are for ablations)."""
     return FeatureSet(
         name=name,
         normalise=normalise,
         centre=centre,
+        body=body,
         description="MR17 body-part distances plus the body's turning rate (rad/s)",
         specs=MR17.specs + (
             FeatureSpec("heading_rate", "heading_rate", _TURN_JOINTS,

@@ -40,8 +40,10 @@ from retrieval.library.storybeam_search import DIMS as STORYBEAM_DIMS
 from retrieval.library.storybeam_search import SHORTLIST, StoryBeamSearcher
 from retrieval.library.pose_search import (
     CHARACTERISTIC,
+    POSE_FEATURE_SET,
     PoseSearch,
     characteristic_frame,
+    pose_feature_set,
     pose_features,
 )
 
@@ -69,6 +71,8 @@ __all__ = [
     "build_bundle",
     "pose_features",
     "PoseSearch",
+    "POSE_FEATURE_SET",
+    "pose_feature_set",
     "CHARACTERISTIC",
     "characteristic_frame",
     "K_MAX",

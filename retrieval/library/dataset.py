@@ -32,6 +32,7 @@ from retrieval.errors import DatasetError, StoryBeamError
 from retrieval.features import HEADING_SMOOTH_SECONDS, FeatureSet, get_feature_set, leg_length, pose_frames
 from retrieval.library.clip import Clip
 from retrieval.motion import (
+    CANONICAL_POSE_VERSION,
     Motion,
     canonical_joint_map,
     load_motion,
@@ -113,9 +114,12 @@ def _cache_key(row: LabelRow, fps: float | None, feature_set: str) -> str:
     parts = [CACHE_VERSION, feature_set, repr(fps)]
     fs = get_feature_set(feature_set)
     if fs.needs_fps:  # a set with a rate: its weights and smoothing are part of what is cached
-        parts.append(repr(fs.specs) + repr(HEADING_SMOOTH_SECONDS) + fs.normalise + repr(fs.centre))
-    elif type(fs) is not FeatureSet or fs.normalise != "legs":  # a subclass (the frontal sets) or another scale: every field
+        parts.append(repr(fs.specs) + repr(HEADING_SMOOTH_SECONDS) + fs.normalise + repr(fs.centre)
+                     + (fs.body if fs.body != "source" else ""))
+    elif type(fs) is not FeatureSet or fs.normalise != "legs" or fs.body != "source":  # a subclass (the frontal sets) or another scale: every field
         parts.append(repr(fs))
+    if fs.body == "canonical":
+        parts.append(f"canonical-pose-{CANONICAL_POSE_VERSION}")
     for p in (row.file, row.skeleton):
         if p is not None:
             st = p.stat()

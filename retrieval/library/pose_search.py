@@ -33,17 +33,32 @@ import numpy as np
 from retrieval.errors import StoryBeamError
 from retrieval.features import get_feature_set
 from retrieval.library.clip import Clip, Match
-from retrieval.library.dataset import load_dataset
+from retrieval.library.dataset import clip_from_motion, load_dataset
 from retrieval.library.index import MotionIndex
+from retrieval.motion import Motion
 
 #: Clips the code search hands to the refinement by default.
 SHORTLIST = 32
 
-_FOOT_JOINTS = ("left_ankle", "left_toe", "right_ankle", "right_toe")
+#: The feature set a pose search indexes by default (:meth:`PoseSearch.build`): MR17 on
+#: the canonical body, so a pose from another skeleton (the app's posable figure, another
+#: studio's file) lands where the same posture does in the library (issue 31; the trade
+#: against ``"mr17"`` is measured in docs/notebook/results.md, "Another skeleton").
+POSE_FEATURE_SET = "mr17-canonical"
+
+
+def pose_feature_set(body: str | None = None) -> str:
+    """The name of the pose search's feature set (:data:`POSE_FEATURE_SET`), or of MR17
+    on the other ``body`` ("source": ``"mr17"``; "canonical": ``"mr17-canonical"``)."""
+    if body is None:
+        return POSE_FEATURE_SET
+    if body not in ("source", "canonical"):
+        raise StoryBeamError(f"pose search: unknown body {body!r} (source or canonical)")
+    return "mr17" if body == "source" else "mr17-canonical"
 
 
 def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size: float, floor: float = 0.0,
-                  feature_set: str = "mr17") -> np.ndarray:
+                  feature_set: str = POSE_FEATURE_SET) -> np.ndarray:
     """The (dim,) features of one posture: ``positions`` (J, 3) in metres, Y up, the
     floor at height ``floor``.
 
@@ -53,7 +68,9 @@ def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size
     so heights are measured above the given floor instead — a posture with both feet in
     the air (a jump's apex) keeps its height. Every other column does not depend on the
     floor, so the result equals the row of the same frame inside a clip whose floor is
-    ``floor``."""
+    ``floor`` (exactly for a set on the file's body; on the canonical body the shift is
+    the source's ankle height over its leg length, the canonical body's own when the
+    source's thigh and shin are equally long and its pelvis level, close otherwise)."""
     pos = np.asarray(positions, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[1] != 3:
         raise StoryBeamError(f"a pose must be (joints, 3) positions, got shape {pos.shape}")
@@ -62,7 +79,7 @@ def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size
     fs = get_feature_set(feature_set)
     # a still posture: a rate feature (the heading's) is 0, whatever the frame rate
     out = fs.from_positions(pos[None], dict(joint_map), body_size, 1.0)[0]
-    lowest = min(pos[joint_map[j], 1] for j in _FOOT_JOINTS)
+    lowest = min(pos[joint_map[j], 1] for j in fs.floor_joints)
     for k, spec in enumerate(fs.specs):
         if spec.kind == "height":
             out[k] += (lowest - floor) / body_size * getattr(spec, "weight", 1.0)
@@ -88,18 +105,31 @@ class PoseSearch:
         self.index = index
 
     @classmethod
-    def from_clips(cls, clips: Sequence[Clip], dims: int = 6, backend: str = "auto") -> "PoseSearch":
+    def from_clips(cls, clips: Sequence[Clip], dims: int = 6, backend: str = "auto",
+                   feature_set: str = POSE_FEATURE_SET) -> "PoseSearch":
         """Index ``clips`` (:meth:`MotionIndex.from_clips`, DTW ``backend``) and keep their
-        features."""
-        return cls(MotionIndex.from_clips(clips, dims, backend=backend), [c.features for c in clips])
+        features; ``feature_set`` names the set they were computed with (the one
+        :meth:`motion_pose` computes a query's features with)."""
+        return cls(MotionIndex.from_clips(clips, dims, feature_set=feature_set, backend=backend),
+                   [c.features for c in clips])
 
     @classmethod
     def build(cls, folder: str | Path, dims: int = 6, fps: float = 30.0, backend: str = "auto") -> "PoseSearch":
         """A pose search over every clip of a labelled folder at ``fps``."""
-        return cls.from_clips(load_dataset(folder, fps=fps), dims, backend)
+        return cls.from_clips(load_dataset(folder, fps=fps, feature_set=POSE_FEATURE_SET), dims, backend)
 
     def __len__(self) -> int:
         return len(self.index)
+
+    def motion_pose(self, motion: Motion, frame: int) -> np.ndarray:
+        """The (dim,) pose query of frame ``frame`` of ``motion`` (numbered in the file's
+        own frames): the motion's features at the index's rate and feature set (its own
+        floor, :func:`~retrieval.library.clip_from_motion`), the row nearest that frame's
+        time — what ``storybeam search --pose FILE:FRAME`` asks."""
+        if not 0 <= frame < motion.n_frames:
+            raise StoryBeamError(f"pose: frame {frame} is outside the motion's frames 0..{motion.n_frames - 1}")
+        feats = clip_from_motion(motion, "", "", self.index.fps, self.index.feature_set).features
+        return feats[min(int(round(frame * self.index.fps / motion.fps)), len(feats) - 1)]
 
     def search(self, pose: np.ndarray, k: int = 5, shortlist: int = SHORTLIST,
                exclude: str | None = None) -> list[Match]:

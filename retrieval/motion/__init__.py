@@ -9,10 +9,15 @@ The bottom layer of StoryBeam: it imports nothing else of StoryBeam but
 from __future__ import annotations
 
 from retrieval.motion.body import (
+    CANONICAL_BONES,
+    CANONICAL_INDEX,
     CANONICAL_JOINTS,
     CANONICAL_PARENTS,
+    CANONICAL_POSE_VERSION,
     JointMapError,
     canonical_joint_map,
+    canonical_pose,
+    canonical_rest,
 )
 from retrieval.motion.topology import TopologyError, topology_joint_map
 from retrieval.motion.formats import (
@@ -66,6 +71,11 @@ __all__ = [
     "positions",
     "rest_positions",
     "resample",
+    "CANONICAL_BONES",
+    "CANONICAL_INDEX",
+    "canonical_pose",
+    "CANONICAL_POSE_VERSION",
+    "canonical_rest",
     "CANONICAL_JOINTS",
     "CANONICAL_PARENTS",
     "JointMapError",

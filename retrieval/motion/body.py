@@ -166,3 +166,110 @@ def canonical_joint_map(skeleton: Skeleton, required: bool = True) -> dict[str, 
             f"(by names; by shape: {reason}) (joint names: {', '.join(skeleton.names[:40])})"
         )
     return {c: found[c] for c in CANONICAL_JOINTS if c in found}
+
+
+#: The canonical body's bone lengths in leg lengths (hip->knee->ankle = 1), the adult
+#: proportions of the characters' default body: :func:`canonical_pose` re-poses every
+#: skeleton onto them. ``hip_half_width`` and ``shoulder_half_width`` run along the
+#: pelvis's and the chest's lateral axis, ``shoulder_drop`` down the chest's.
+CANONICAL_BONES: dict[str, float] = {
+    "thigh": 0.5, "shin": 0.5, "foot": 0.19, "hip_half_width": 0.11, "lower_spine": 0.33,
+    "upper_spine": 0.33, "head": 0.12, "shoulder_half_width": 0.2, "shoulder_drop": 0.06,
+    "upper_arm": 0.35, "forearm": 0.31,
+}
+#: (canonical joint, the joint its bone starts from, the bone's length key) for the limb
+#: joints :func:`canonical_pose` places along the source's bone direction.
+_LIMBS: tuple[tuple[str, str, str], ...] = (
+    ("left_elbow", "left_shoulder", "upper_arm"), ("left_hand", "left_elbow", "forearm"),
+    ("right_elbow", "right_shoulder", "upper_arm"), ("right_hand", "right_elbow", "forearm"),
+    ("left_knee", "left_hip", "thigh"), ("left_ankle", "left_knee", "shin"), ("left_toe", "left_ankle", "foot"),
+    ("right_knee", "right_hip", "thigh"), ("right_ankle", "right_knee", "shin"),
+    ("right_toe", "right_ankle", "foot"),
+)
+#: Bumped whenever :func:`canonical_pose` changes what it computes: cached features of a
+#: canonical-body set are keyed by it.
+CANONICAL_POSE_VERSION = 2
+
+#: The canonical joint map of :func:`canonical_pose`'s output.
+CANONICAL_INDEX: dict[str, int] = {c: i for i, c in enumerate(CANONICAL_JOINTS)}
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.divide(v, n, out=np.zeros_like(v), where=n > 1e-12)
+
+
+def canonical_pose(pos: np.ndarray, joint_map: dict[str, int], leg: float) -> np.ndarray:
+    """(T, J, 3) positions of any skeleton (metres, Y up; ``joint_map`` its canonical map,
+    ``leg`` its rest leg length in metres) -> (T, 18, 3) positions of the canonical body
+    (:data:`CANONICAL_JOINTS` order, :data:`CANONICAL_INDEX`) in leg lengths, doing the
+    same posture with the canonical bone lengths (:data:`CANONICAL_BONES`).
+
+    Method: the source gives directions only, never lengths or joint placements, and
+    only between joints every rig places alike — the hip joints, the shoulder joints
+    (the upper arms' starts), the limbs and the head's direction from the shoulders; a
+    rig's spine and neck joints are left out (CMU's own BVH conversion starts its neck
+    at the thorax, 12 cm below the Acclaim original's). The pelvis centre is the
+    midpoint of the two hip joints (not the file's root or ``Hips`` joint, which rigs
+    place anywhere between the hips and the waist), at the source's position divided by
+    ``leg`` (a jump rises by the same number of leg lengths); the hip joints sit
+    ``hip_half_width`` either side along the source's hip-to-hip axis; spine and neck
+    lie on the straight trunk from the pelvis centre towards the source's shoulder
+    centre; the shoulders sit ``shoulder_half_width`` either side of the neck along the
+    source's shoulder-to-shoulder axis and ``shoulder_drop`` down the trunk; the head is
+    ``head`` from the neck along the source's shoulder-centre->head direction (a head
+    joint at the eyes or at the top of the neck points the same way); every limb joint
+    is its parent plus the canonical length along the source's bone direction.
+    What stays rig-dependent is the direction itself where rigs disagree (a toe joint at
+    the ball or at the tip of the foot): see :attr:`FeatureSet.floor_joints`."""
+    pos = np.asarray(pos, dtype=np.float64) / leg
+    b = CANONICAL_BONES
+    out = np.empty((pos.shape[0], len(CANONICAL_JOINTS), 3))
+
+    def src(name: str) -> np.ndarray:
+        return pos[:, joint_map[name]]
+
+    def put(name: str, value: np.ndarray) -> None:
+        out[:, CANONICAL_INDEX[name]] = value
+
+    def got(name: str) -> np.ndarray:
+        return out[:, CANONICAL_INDEX[name]]
+
+    mid = 0.5 * (src("left_hip") + src("right_hip"))
+    lateral = _unit(src("left_hip") - src("right_hip"))
+    put("hips", mid)
+    put("left_hip", mid + b["hip_half_width"] * lateral)
+    put("right_hip", mid - b["hip_half_width"] * lateral)
+    shoulder_centre = 0.5 * (src("left_shoulder") + src("right_shoulder"))
+    trunk = _unit(shoulder_centre - mid)
+    put("spine", mid + b["lower_spine"] * trunk)
+    put("neck", got("spine") + b["upper_spine"] * trunk)
+    put("head", got("neck") + b["head"] * _unit(src("head") - shoulder_centre))
+    across = src("left_shoulder") - src("right_shoulder")
+    across = _unit(across - np.sum(across * trunk, axis=-1, keepdims=True) * trunk)
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        put(f"{side}_shoulder", got("neck") + sign * b["shoulder_half_width"] * across - b["shoulder_drop"] * trunk)
+    for joint, start, bone in _LIMBS:
+        put(joint, got(start) + b[bone] * _unit(src(joint) - src(start)))
+    return out
+
+
+def canonical_rest() -> np.ndarray:
+    """(18, 3) rest pose of the canonical body of :func:`canonical_pose` (T-pose, facing
+    +Z, Y up, leg lengths; the pelvis centre at the origin)."""
+    b = CANONICAL_BONES
+    rest = np.zeros((len(CANONICAL_JOINTS), 3))
+    down = np.array([0.0, -1.0, 0.0])
+    offsets = {
+        "left_hip": (b["hip_half_width"], 0, 0), "right_hip": (-b["hip_half_width"], 0, 0),
+        "spine": (0, b["lower_spine"], 0), "neck": (0, b["upper_spine"], 0), "head": (0, b["head"], 0),
+        "left_shoulder": (b["shoulder_half_width"], -b["shoulder_drop"], 0),
+        "right_shoulder": (-b["shoulder_half_width"], -b["shoulder_drop"], 0),
+        "left_elbow": (b["upper_arm"], 0, 0), "left_hand": (b["forearm"], 0, 0),
+        "right_elbow": (-b["upper_arm"], 0, 0), "right_hand": (-b["forearm"], 0, 0),
+        "left_knee": down * b["thigh"], "left_ankle": down * b["shin"], "left_toe": (0, 0, b["foot"]),
+        "right_knee": down * b["thigh"], "right_ankle": down * b["shin"], "right_toe": (0, 0, b["foot"]),
+    }
+    for c in CANONICAL_JOINTS[1:]:
+        rest[CANONICAL_INDEX[c]] = rest[CANONICAL_INDEX[CANONICAL_PARENTS[c]]] + np.asarray(offsets[c], float)
+    return rest

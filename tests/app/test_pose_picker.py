@@ -95,7 +95,7 @@ def test_figure_features_are_the_library_features_of_its_joints():
     np.testing.assert_allclose(m.features(), expect, rtol=0, atol=0)
     names = ["rankle_height", "lankle_height", "hips_height"]
     from retrieval.features import MR17
-    got = {n: m.features()[MR17.names.index(n)] for n in names}
+    got = {n: m.features("mr17")[MR17.names.index(n)] for n in names}  # the file's own body: the figure's joints
     assert got["rankle_height"] == pytest.approx((0.7 - f.FLOOR) / f.LEG)
     assert got["lankle_height"] < 0.2 and got["hips_height"] == pytest.approx((f.STAND_HIPS - f.FLOOR) / f.LEG)
 

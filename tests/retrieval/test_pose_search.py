@@ -58,9 +58,9 @@ def test_pose_features_equal_the_frame_row_of_the_whole_clip():
     floor = float(np.percentile(lowest, 2.0))
     size = leg_length(sk, jm)
     for t in (0, 7, 19, 33):
-        np.testing.assert_allclose(pose_features(pos[t], jm, size, floor), rows[t], atol=1e-12)
+        np.testing.assert_allclose(pose_features(pos[t], jm, size, floor, "mr17"), rows[t], atol=1e-12)
     # the floor only moves the three heights, by the floor's change over the leg length
-    lifted = pose_features(pos[7], jm, size, floor - 0.1)
+    lifted = pose_features(pos[7], jm, size, floor - 0.1, "mr17")
     heights = [k for k, s in enumerate(MR17.specs) if s.kind == "height"]
     others = [k for k in range(MR17.dim) if k not in heights]
     np.testing.assert_allclose(lifted[heights] - rows[7][heights], 0.1 / size, atol=1e-12)
