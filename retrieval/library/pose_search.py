@@ -41,10 +41,12 @@ from retrieval.motion import Motion
 SHORTLIST = 32
 
 #: The feature set a pose search indexes by default (:meth:`PoseSearch.build`): MR17 on
-#: the canonical body, so a pose from another skeleton (the app's posable figure, another
-#: studio's file) lands where the same posture does in the library (issue 31; the trade
-#: against ``"mr17"`` is measured in docs/notebook/results.md, "Another skeleton").
-POSE_FEATURE_SET = "mr17-canonical"
+#: the file's own body. ``"mr17-canonical"`` (the canonical body, issue 31) lands a pose
+#: from another skeleton where the same posture is in the library -- same class 0.35 ->
+#: 0.92 on a cartoon body -- but costs the library's own skeleton its jump poses (bench
+#: pose-search: jump 92.5 % -> 83.0 %, under issue 14's 85 %), so it is not the default
+#: yet: docs/notebook/results.md, "Another skeleton"; ``--body canonical`` measures it.
+POSE_FEATURE_SET = "mr17"
 
 
 def pose_feature_set(body: str | None = None) -> str:

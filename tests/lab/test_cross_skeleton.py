@@ -106,7 +106,8 @@ def test_motion_pose_is_the_search_commands_row(folders):
     from retrieval.motion import load_motion
 
     lib, _ = folders
-    search = PoseSearch.from_clips(load_dataset(lib, fps=30.0, feature_set=pose_feature_set()), dims=3)
+    canonical = pose_feature_set("canonical")
+    search = PoseSearch.from_clips(load_dataset(lib, fps=30.0, feature_set=canonical), dims=3, feature_set=canonical)
     motion = load_motion(lib / "run_1.bvh")
     feats = clip_from_motion(motion, "run_1", "", 30.0, search.index.feature_set).features
     assert np.array_equal(search.motion_pose(motion, 20), feats[20])
@@ -114,7 +115,7 @@ def test_motion_pose_is_the_search_commands_row(folders):
     with pytest.raises(StoryBeamError, match="outside the motion's frames"):
         search.motion_pose(motion, motion.n_frames)
     # a search over another feature set computes its queries in that set
-    assert search.index.feature_set == pose_feature_set() == "mr17-canonical"
+    assert search.index.feature_set == canonical == "mr17-canonical" and pose_feature_set() == "mr17"
     source = pose_feature_set("source")
     other = PoseSearch.from_clips(load_dataset(lib, fps=30.0, feature_set=source), dims=3, feature_set=source)
     assert np.array_equal(other.motion_pose(motion, 20),
