@@ -4,7 +4,7 @@ flatness away from the board, on the synthetic rig.
 
     PYTHONPATH=. python scripts/graycode_spread_sweep.py 0.0 0.05 0.08
 """
-import json, sys, numpy as np
+import sys, numpy as np
 from ar import Board, DEFAULT_BOARD_SPEC, SyntheticCamera, rotation_angle_deg
 from ar.structured_light.synthetic import GrayCodeScene, graycode_poses, scan_view, default_scan_box, height_map_errors
 from ar.structured_light.decode import decode_images

@@ -345,7 +345,6 @@ class NarrationPanel(ModalView):
         Clock.unschedule(self._tick)
         if recorder is None:
             return
-        app = App.get_running_app()
         try:
             path = recorder.stop()
             try:
@@ -358,8 +357,7 @@ class NarrationPanel(ModalView):
         self.refresh()
 
     def pick_file(self, path: Path) -> None:
-        """Check an audio file; a refused one is named with the reason, nothing kept."""
-        app = App.get_running_app()
+        """Check an audio file; a refused one is a notice (its reason in the log), nothing kept."""
         try:
             self.pending = read_audio(path)
         except StoryBeamError as exc:

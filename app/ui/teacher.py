@@ -33,7 +33,6 @@ from app.ui.import_picker import ImportPicker
 from app.ui.narration import RECORDING_SETTING, recording_allowed
 from app.ui.number_words import in_words
 from app.ui.story_bin import BinView
-from app.ui.strings import tr
 from app.ui.widgets import BUTTON_DP, IconButton, big_label, compact_screen, filled
 from retrieval.errors import StoryBeamError
 
