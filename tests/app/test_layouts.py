@@ -68,7 +68,7 @@ def test_the_checker_finds_cut_covered_and_overflowing_widgets(kivy_ui):
     root.add_widget(under)
     root.add_widget(over)  # added last: drawn on top of "under"
     long = Label(text="a sentence far too long for its little box " * 3, pos=(150, 200), size=(80, 30))
-    long.texture_update()
+    long.texture_size = [410, 24]  # what its text measures when drawn: set, so no GL context is needed here
     root.add_widget(long)
     row = BoxLayout(pos=(150, 100), size=(120, 50))
     root.add_widget(row)
