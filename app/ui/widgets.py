@@ -64,6 +64,8 @@ class IconButton(ButtonBehavior, BoxLayout):
         else:  # text-only key: the label fills the button
             self.label.size_hint_y, self.label.font_size = 1, (font_size or dp(15)) * 1.4
         self.add_widget(self.label)
+        if icon and not text:  # a picture-only button: the picture takes the label's room too
+            self.label.height, self.label.opacity = 0, 0
         self.bind(text=lambda *_: setattr(self.label, "text", self.text),
                   icon=lambda *_: setattr(self.icon_view, "icon", self.icon),
                   icon_colour=lambda *_: setattr(self.icon_view, "colour", self.icon_colour),
