@@ -17,6 +17,7 @@ Needs :mod:`ar.scene` only (the character designs are numpy): it runs on the tab
 from __future__ import annotations
 
 import csv
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,8 @@ from ar.scene import build_character
 from retrieval.animation import Ground, OneShot, TablePath, find_loop, follow_path, follow_surface, retarget
 from retrieval.errors import StoryBeamError
 from retrieval.motion import Motion, load_motion
+
+log = logging.getLogger(__name__)
 
 #: story character kinds -> ar.scene character designs
 CHARACTER_DESIGNS = {"robot": "robot", "animal": "cat", "child": "kid"}
@@ -112,6 +115,26 @@ class SceneAnimator:
         if self.ground is not None:
             return design, follow_surface(result.motion, self.ground).motion
         return design, result.motion
+
+    def animate_scene(self, characters: list[Character], where: str = "scene"
+                      ) -> tuple[list[tuple[Character, CharacterDesign, Motion]], list[str]]:
+        """``(cast, problems)``: every character with a path (two points or more) as
+        ``(character, design, motion)`` (:meth:`animate`). One that cannot be animated (no
+        clip of its class, a clip that cannot be read, a path its motion cannot follow)
+        is left out; ``problems`` says why (``"<kind> <id>: <reason>"``), and so does the
+        log, naming ``where`` (the preview, the stage, the film)."""
+        cast, problems = [], []
+        for character in characters:
+            if len(character.path) < 2:
+                continue
+            try:
+                design, motion = self.animate(character)
+            except (StoryBeamError, ValueError, OSError) as exc:
+                problems.append(f"{character.kind} {character.id}: {exc}")
+                log.warning("%s leaves out %s: %s", where, character.id, exc)
+                continue
+            cast.append((character, design, motion))
+        return cast, problems
 
 
 __all__ = ["SceneAnimator", "CHARACTER_DESIGNS", "CYCLIC_CLASSES", "MARK_CLASSES", "CHARACTER_HEIGHT_M"]

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import csv
 import json
-import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,9 +27,7 @@ from app.player.placement import PREVIEW_PLACEMENT, table_to_scene
 from app.story import TABLE_DEPTH_M, TABLE_WIDTH_M, Scene
 from ar import look_at
 from ar.scene import Lighting, SceneDescription, View, add_character, add_mesh, ribbon, table_mesh
-from retrieval.errors import StoryBeamError
 
-log = logging.getLogger(__name__)
 
 #: the preview's light: brighter than the projector's (a lit table, not light on a table)
 PREVIEW_LIGHTING = Lighting(ambient=0.45, key_intensity=3.5)
@@ -109,17 +106,12 @@ class ScenePreviewRenderer:
         prepared = _Prepared(View(w, h, K, T))
         prepared.statics.append((table_mesh(TABLE_WIDTH_M, TABLE_DEPTH_M), table_colour(scene.background)))
         for character in scene.characters:
-            if len(character.path) < 2:
-                continue
-            path = table_to_scene(np.array(character.path), PREVIEW_PLACEMENT)
-            prepared.statics.append((ribbon(path, width=0.01), (255, 255, 255)))
-            try:
-                design, motion = self.animator.animate(character)
-            except (StoryBeamError, ValueError, OSError) as exc:
-                prepared.problems.append(f"{character.kind} {character.id}: {exc}")
-                log.warning("3-D preview leaves out %s: %s", character.id, exc)
-                continue
-            prepared.cast.append((design, design.all_part_poses(motion)))
+            if len(character.path) >= 2:
+                path = table_to_scene(np.array(character.path), PREVIEW_PLACEMENT)
+                prepared.statics.append((ribbon(path, width=0.01), (255, 255, 255)))
+        cast, problems = self.animator.animate_scene(scene.characters, "3-D preview")
+        prepared.problems.extend(problems)
+        prepared.cast.extend((design, design.all_part_poses(motion)) for _, design, motion in cast)
         return prepared
 
 

@@ -182,18 +182,9 @@ class StageRenderer:
         key = json.dumps(scene.to_dict(), sort_keys=True)
         if key == self._key:
             return
-        self._cast, self._hips_tracks, self.problems = [], [], []
-        for i, character in enumerate(scene.characters):
-            if len(character.path) < 2:
-                continue
-            try:
-                design, motion = self.animator.animate(character)
-            except (StoryBeamError, ValueError, OSError) as exc:
-                self.problems.append(f"{character.kind} {character.id}: {exc}")
-                log.warning("projector stage leaves out %s: %s", character.id, exc)
-                continue
-            self._cast.append((design, design.all_part_poses(motion)))
-            self._hips_tracks.append(positions(motion)[:, 0])  # for character_px
+        cast, self.problems = self.animator.animate_scene(scene.characters, "projector stage")
+        self._cast = [(design, design.all_part_poses(motion)) for _, design, motion in cast]
+        self._hips_tracks = [positions(motion)[:, 0] for _, _, motion in cast]  # for character_px
         self._key = key
 
     def render(self, scene: Scene, t: float, view: str = "projector") -> StageFrame:

@@ -165,17 +165,14 @@ class StoryFilm:
         """Animate the scene's characters, frame the camera, draw the sky."""
         statics = [(table_mesh(GROUND_M, GROUND_M), place(scene.background).ground)]
         ground = np.asarray(place(scene.background).ground, float)
-        cast, problems = [], []
         for character in scene.characters:
-            if len(character.path) < 2:
-                continue
-            path = table_to_scene(np.array(character.path), PREVIEW_PLACEMENT)
-            statics.append((ribbon(path, width=0.02, lift=0.001), tuple(int(c) for c in 0.55 * ground + 0.45 * 255)))
-            try:
-                design, motion = self.animator.animate(character)
-            except (StoryBeamError, ValueError, OSError) as exc:
-                problems.append(f"{character.kind} {character.id}: {exc}")
-                continue
+            if len(character.path) >= 2:
+                path = table_to_scene(np.array(character.path), PREVIEW_PLACEMENT)
+                statics.append((ribbon(path, width=0.02, lift=0.001),
+                                tuple(int(c) for c in 0.55 * ground + 0.45 * 255)))
+        animated, problems = self.animator.animate_scene(scene.characters, "story film")
+        cast = []
+        for _, design, motion in animated:
             poses = design.all_part_poses(motion)
             cast.append((design, poses, poses[:, :, :3, 3].mean(axis=1)))
         hips = np.full((n_frames, max(len(cast), 1), 3), np.nan)
