@@ -105,6 +105,7 @@ def clipped_widgets(roots: list[Widget], size: tuple[float, float]) -> list[dict
     def report(w: Widget, problem: str, box: tuple) -> None:
         problems.append({"widget": _name(w), "problem": problem, "box": [round(v, 1) for v in box]})
 
+    ancestors = [_ancestors(w) for w, _, _ in drawn]
     for i, (w, box, in_scroll) in enumerate(drawn):
         x0, y0, x1, y1 = box
         if not in_scroll:
@@ -124,9 +125,8 @@ def clipped_widgets(roots: list[Widget], size: tuple[float, float]) -> list[dict
             report(w, "text cut", box)
             continue
         area = max((x1 - x0) * (y1 - y0), 1.0)
-        mine = _ancestors(w)
-        for v, (ox0, oy0, ox1, oy1), _ in drawn[i + 1:]:
-            if isinstance(v, ScrollView) or id(v) in mine or id(w) in _ancestors(v):
+        for (v, (ox0, oy0, ox1, oy1), _), theirs in zip(drawn[i + 1:], ancestors[i + 1:]):
+            if isinstance(v, ScrollView) or id(v) in ancestors[i] or id(w) in theirs:
                 continue
             ix = min(x1, ox1) - max(x0, ox0)
             iy = min(y1, oy1) - max(y0, oy0)

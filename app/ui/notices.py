@@ -20,7 +20,6 @@ from app.ui.notice_art import PICTURES, draw_notice
 from app.ui.widgets import big_label
 from ar.camera_sources import CameraSourceError
 from ar.errors import RigError
-from retrieval.errors import StoryBeamError
 
 log = logging.getLogger(__name__)
 
@@ -42,8 +41,6 @@ def notice_for(exc: BaseException) -> str:
         return "no_camera"
     if isinstance(exc, StoryError):
         return "file_broken"
-    if isinstance(exc, (StoryBeamError, OSError)):
-        return "oops"
     return "oops"
 
 
