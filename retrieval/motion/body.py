@@ -48,7 +48,8 @@ CANONICAL_PARENTS: dict[str, str | None] = {
 # Base words per part, most preferred first. A pattern is a full-match regex on the
 # base word (lower case, separators removed).
 _SIDED_PARTS: dict[str, tuple[str, ...]] = {
-    "shoulder": ("upperarm", "uparm", "humerus", "arm", "shoulder"),
+    # Poser/Daz's upper-arm joint is ``lShldr`` (its clavicle ``lCollar``, skipped).
+    "shoulder": ("upperarm", "uparm", "humerus", "arm", "shldr", "shoulder"),
     "elbow": ("forearm", "lowerarm", "lowarm", "radius", "elbow"),
     "hand": ("wrist", "hand"),
     "hip": ("thigh", "upleg", "upperleg", "femur", "hip"),
@@ -56,7 +57,9 @@ _SIDED_PARTS: dict[str, tuple[str, ...]] = {
     "ankle": ("ankle", "foot"),
     # SMPL's ``L_Foot`` is the ball of the foot (its ankle is ``L_Ankle``): "foot" is a
     # toe only when another joint already took the ankle.
-    "toe": ("toebase", "toes?", "ball", "foot"),
+    # MakeHuman's feet end in five toes (``toe1-1.l`` ... ``toe5-3.l``): the first one,
+    # the big toe's root, stands for the toe.
+    "toe": ("toebase", "toes?", "toe0*1\\d*", "ball", "foot"),
 }
 _CENTRE_PARTS: dict[str, tuple[str, ...]] = {
     "spine": ("thorax", "chest", "upperchest", "spine0*[2-9]", "upperback", "spine0*1", "spine"),
@@ -66,10 +69,15 @@ _CENTRE_PARTS: dict[str, tuple[str, ...]] = {
 # The pelvis joint, when the root is something else (Character Creator's ``RL_BoneRoot``
 # sits on the floor with ``CC_Base_Hip`` below it); Acclaim's ``root`` is the pelvis.
 _HIPS_PATTERNS: tuple[str, ...] = ("hips?", "pelvis")
-# Acclaim-style names glue the side letter to a known body word: "lfemur", "rtoes".
+# Acclaim-style names glue the side letter to a known body word: "lfemur", "rtoes"; so do
+# MakeHuman's and MocapNET's ("lshoulder", "relbow", "lbuttock", "rknee").
 _GLUED_SIDE = re.compile(
-    r"^([lr])(hipjoint|femur|tibia|foot|toes|clavicle|humerus|radius|wrist|hand|fingers|thumb)$"
+    r"^([lr])(hipjoint|femur|tibia|foot|toes?|clavicle|humerus|radius|wrist|hand|fingers|thumb"
+    r"|collar|shoulder|shldr|elbow|forearm|buttock|hip|thigh|knee|shin|ankle)$"
 )
+# Poser/Daz-style names glue a lower-case side letter to a capitalised word: "lShldr",
+# "rForeArm", "lThigh" (checked on the name as written, before lower-casing).
+_CAMEL_SIDE = re.compile(r"^([lr])(?=[A-Z])")
 _PREFIXES = re.compile(r"^(cc_base_|mixamorig\d*[:_]|bip0?1[ _]?|b_|def[-_]|j_)")
 
 
@@ -79,6 +87,9 @@ class JointMapError(StoryBeamError):
 
 def split_side(name: str) -> tuple[str | None, str]:
     """(side, base word) of a joint name: side is "left", "right" or None."""
+    camel = _CAMEL_SIDE.match(name.strip())
+    if camel:
+        return ("left" if camel.group(1) == "l" else "right"), re.sub(r"[^a-z0-9]", "", name.strip()[1:].lower())
     n = _PREFIXES.sub("", name.strip().lower())
     m = _GLUED_SIDE.match(n)
     if m:

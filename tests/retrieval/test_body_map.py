@@ -8,7 +8,7 @@ import pytest
 
 from retrieval.features import motion_features
 from retrieval.motion import Joint, Motion, Skeleton, canonical_joint_map, load_motion
-from retrieval.motion.body import JointMapError
+from retrieval.motion.body import JointMapError, split_side
 from retrieval.motion.topology import TopologyError, topology_joint_map
 from tests.support.synthetic_motion import make_motion, make_skeleton
 
@@ -83,6 +83,22 @@ CONVENTIONS = {
         {"hips": "CC_Base_Hip", "spine": "CC_Base_Spine02", "left_shoulder": "CC_Base_L_Upperarm",
          "right_knee": "CC_Base_R_Calf", "left_toe": "CC_Base_L_ToeBase"},
     ),
+    # MocapNET's MakeHuman hybrid (the CMU conversion in AmmarkoV/RGBDAcquisition): side
+    # letters glued to lower-case words, a collar and a buttock before the limbs, face
+    # joints with ".l" suffixes and "__" helpers, five toes per foot.
+    "makehuman": (
+        [("hip", None), ("abdomen", "hip"), ("chest", "abdomen"), ("neck", "chest"), ("neck1", "neck"),
+         ("head", "neck1"), ("__jaw", "head"), ("jaw", "__jaw"), ("eye.l", "head"), ("eye.r", "head"),
+         ("orbicularis03.l", "head")]
+        + _sided([("{s}collar", "chest"), ("{s}shoulder", "{s}collar"), ("{s}elbow", "{s}shoulder"),
+                  ("{s}hand", "{s}elbow"), ("__{s}thumb", "{s}hand"), ("{s}thumb", "__{s}thumb"),
+                  ("{s}buttock", "hip"), ("{s}hip", "{s}buttock"), ("{s}knee", "{s}hip"), ("{s}foot", "{s}knee")],
+                 "l", "r")
+        + [(f"toe{t}-{k}.{s}", "lfoot" if s == "l" else "rfoot") for s in "lr" for t in (1, 2) for k in (1, 2)],
+        {"hips": "hip", "spine": "chest", "neck": "neck", "head": "head", "left_shoulder": "lshoulder",
+         "left_elbow": "lelbow", "right_hand": "rhand", "left_hip": "lhip", "right_knee": "rknee",
+         "left_ankle": "lfoot", "left_toe": "toe1-1.l", "right_toe": "toe1-1.r"},
+    ),
 }
 
 
@@ -102,6 +118,36 @@ def test_biovision_foot_without_toe_joint_uses_its_end_site():
         joints.append(Joint(f"{side}Foot_end", sk.index(f"{side}Foot"), np.array([0.0, -3.0, 10.0]), []))
     got = _named(Skeleton(joints))
     assert (got["left_toe"], got["right_toe"]) == ("LeftFoot_end", "RightFoot_end")
+
+
+def test_poser_daz_camel_case_sides_resolve():
+    # cgspeed's Daz-friendly CMU release: "lShldr", "rForeArm", "lThigh", "rShin"; the feet
+    # end in end sites; "lCollar" and "lButtock" are not the shoulder or the hip.
+    rows = [("hip", None), ("abdomen", "hip"), ("chest", "abdomen"), ("neck", "chest"), ("head", "neck"),
+            ("leftEye", "head"), ("rightEye", "head")]
+    rows += _sided([("{s}Collar", "chest"), ("{s}Shldr", "{s}Collar"), ("{s}ForeArm", "{s}Shldr"),
+                    ("{s}Hand", "{s}ForeArm"), ("{s}Thumb1", "{s}Hand"), ("{s}Buttock", "hip"),
+                    ("{s}Thigh", "{s}Buttock"), ("{s}Shin", "{s}Thigh"), ("{s}Foot", "{s}Shin")], "l", "r")
+    sk = _chain_skeleton(rows)
+    joints = list(sk.joints)
+    for side in "lr":
+        joints.append(Joint(f"{side}Foot_end", sk.index(f"{side}Foot"), np.array([0.0, -3.0, 10.0]), []))
+    got = _named(Skeleton(joints))
+    assert got == {"hips": "hip", "spine": "chest", "neck": "neck", "head": "head",
+                   "left_shoulder": "lShldr", "left_elbow": "lForeArm", "left_hand": "lHand",
+                   "right_shoulder": "rShldr", "right_elbow": "rForeArm", "right_hand": "rHand",
+                   "left_hip": "lThigh", "left_knee": "lShin", "left_ankle": "lFoot", "left_toe": "lFoot_end",
+                   "right_hip": "rThigh", "right_knee": "rShin", "right_ankle": "rFoot", "right_toe": "rFoot_end"}
+
+
+@pytest.mark.parametrize("name,side_base", [
+    ("lShldr", ("left", "shldr")), ("rForeArm", ("right", "forearm")), ("lelbow", ("left", "elbow")),
+    ("rbuttock", ("right", "buttock")), ("toe1-1.l", ("left", "toe11")), ("lowerback", (None, "lowerback")),
+    ("LowerBack", (None, "lowerback")), ("leftEye", ("left", "eye")), ("rootTransform", (None, "roottransform")),
+    ("lfemur", ("left", "femur")), ("LHipJoint", ("left", "hipjoint")),
+])
+def test_side_letters_glued_to_a_word_are_sides_only_before_body_words(name, side_base):
+    assert split_side(name) == side_base
 
 
 def test_real_skeletons_resolve_by_name(cmu_dir):
