@@ -42,28 +42,31 @@ class ManifestError(ValueError):
 def read_manifest(path: Path) -> list[dict[str, str]]:
     """The manifest's rows, checked: every column present and filled in, a 40-digit commit,
     a trial named like the library's (``02_03``), each (source, trial) once."""
-    rows, seen = [], set()
     with open(path, newline="", encoding="utf-8") as f:
-        reader = csv.DictReader(f)
-        missing = [c for c in COLUMNS if c not in (reader.fieldnames or [])]
-        if missing:
-            raise ManifestError(f"{path}:1: missing column(s) {', '.join(missing)}")
-        for line, row in enumerate(reader, 2):
-            where = f"{path}:{line}"
-            empty = [c for c in COLUMNS if not (row.get(c) or "").strip()]
-            if empty:
-                raise ManifestError(f"{where}: empty column(s) {', '.join(empty)}")
-            if len(row["commit"]) != 40 or any(ch not in "0123456789abcdef" for ch in row["commit"]):
-                raise ManifestError(f"{where}: commit {row['commit']!r} is not 40 hex digits")
-            subject, _, take = row["trial"].partition("_")
-            if not (subject.isdigit() and take.isdigit()):
-                raise ManifestError(f"{where}: trial {row['trial']!r} is not SUBJECT_TAKE")
-            key = (row["source"], row["trial"])
-            if key in seen:
-                raise ManifestError(f"{where}: {row['source']}/{row['trial']} listed twice")
-            seen.add(key)
-            rows.append(row)
+        table = list(csv.reader(f))
+    header = table[0] if table else []
+    absent = [c for c in COLUMNS if c not in header]
+    if absent:
+        raise ManifestError(f"{path}:1: missing column(s) {', '.join(absent)}")
+    rows: list[dict[str, str]] = []
+    for line, values in enumerate(table[1:], 2):
+        row = dict(zip(header, values))
+        _check_row(row, f"{path}:{line}", {(r["source"], r["trial"]) for r in rows})
+        rows.append(row)
     return rows
+
+
+def _check_row(row: dict[str, str], where: str, seen: set[tuple[str, str]]) -> None:
+    empty = [c for c in COLUMNS if not (row.get(c) or "").strip()]
+    if empty:
+        raise ManifestError(f"{where}: empty column(s) {', '.join(empty)}")
+    if len(row["commit"]) != 40 or any(ch not in "0123456789abcdef" for ch in row["commit"]):
+        raise ManifestError(f"{where}: commit {row['commit']!r} is not 40 hex digits")
+    subject, _, take = row["trial"].partition("_")
+    if not (subject.isdigit() and take.isdigit()):
+        raise ManifestError(f"{where}: trial {row['trial']!r} is not SUBJECT_TAKE")
+    if (row["source"], row["trial"]) in seen:
+        raise ManifestError(f"{where}: {row['source']}/{row['trial']} listed twice")
 
 
 def materialise(rows: list[dict[str, str]], mirror: Path, out: Path) -> list[str]:
@@ -88,21 +91,27 @@ def materialise(rows: list[dict[str, str]], mirror: Path, out: Path) -> list[str
     return problems
 
 
-def main(argv: list[str] | None = None) -> int:
+def _arguments(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--mirror", type=Path, default=Path("/work/.mirror"))
-    ap.add_argument("--manifest", type=Path, default=MANIFEST)
-    ap.add_argument("--sources", default="", help="comma-separated sources to write (default: all)")
-    args = ap.parse_args(argv)
+    for flag, kind, default, what in (
+        ("--out", Path, None, "folder to write OUT/<source>/<trial>.bvh into"),
+        ("--mirror", Path, Path("/work/.mirror"), "folder of the repository snapshots"),
+        ("--manifest", Path, MANIFEST, "the manifest CSV"),
+        ("--sources", str, "", "comma-separated sources to write (default: all)"),
+    ):
+        ap.add_argument(flag, type=kind, default=default, required=default is None, help=what)
+    return ap.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _arguments(argv)
     try:
         rows = read_manifest(args.manifest)
     except (ManifestError, OSError) as e:
         print(e, file=sys.stderr)
         return 2
     wanted = {s for s in args.sources.split(",") if s}
-    rows = [r for r in rows if not wanted or r["source"] in wanted]
-    problems = materialise(rows, args.mirror, args.out)
+    problems = materialise([r for r in rows if not wanted or r["source"] in wanted], args.mirror, args.out)
     for p in problems:
         print("skipped:", p, file=sys.stderr)
     return 1 if problems else 0
