@@ -7,7 +7,9 @@ Mixamo's (``mixamorig:LeftUpLeg``) and the usual BVH names (``LeftUpLeg``, ``Lef
 all resolve, and so do Bandai's (``UpperLeg_L``, ``Chest``), SMPL-like names (``L_Hip``,
 ``L_Ankle``, ``L_Foot`` as the toe, ``L_Collar`` skipped for ``L_Shoulder``) and
 Biovision's (``LeftUpArm``, ``LeftLowArm``, ``LeftLowLeg``; a foot with no toe joint uses
-its end site as the toe). Each name is split into a side (left/right/none) and a base
+its end site as the toe), Poser/Daz's (``lShldr``, ``rForeArm``, ``lThigh``, ``rShin``: a
+lower-case side letter before a capital) and MakeHuman's "CMU+face" armature as MocapNET
+writes it (``lshoulder``, ``relbow``, ``rhip``, ``lknee``, toes ``toe1-1.l``). Each name is split into a side (left/right/none) and a base
 word; each canonical part lists base words in order of preference and takes the first
 joint not already taken (so SMPL's ``L_Foot`` becomes the toe once ``L_Ankle`` is the
 ankle).
