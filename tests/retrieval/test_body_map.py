@@ -270,3 +270,38 @@ def test_renamed_z_up_cmu_survives_a_bvh_round_trip(cmu_dir, tmp_path):
     assert back.skeleton.up_axis == "z"
     assert canonical_joint_map(back.skeleton) == canonical_joint_map(m.skeleton)
     np.testing.assert_allclose(motion_features(back, "storybeam"), motion_features(m, "storybeam"), atol=1e-6)
+
+
+@pytest.mark.parametrize("style", ["daz", "makehuman"])
+def test_poser_and_makehuman_named_bvh_loads_with_the_same_features(tmp_path, style):
+    # The synthetic body written as a BVH under Poser/Daz names (lShldr, rShin, lToe) or
+    # MakeHuman/MocapNET names (lshoulder, rknee, toe1-1.l) and read back: same canonical
+    # joints, same features as the original.
+    from retrieval.motion import save_bvh
+
+    sk = make_skeleton()
+    m = make_motion(sk, frames=90)
+    words = {"daz": {"Hips": "hip", "Spine": "chest", "Neck": "neck", "Head": "head", "Arm": "{s}Shldr",
+                     "ForeArm": "{s}ForeArm", "Hand": "{s}Hand", "UpLeg": "{s}Thigh", "Leg": "{s}Shin",
+                     "Foot": "{s}Foot", "ToeBase": "{s}Toe"},
+             "makehuman": {"Hips": "hip", "Spine": "chest", "Neck": "neck", "Head": "head", "Arm": "{s}shoulder",
+                           "ForeArm": "{s}elbow", "Hand": "{s}hand", "UpLeg": "{s}hip", "Leg": "{s}knee",
+                           "Foot": "{s}foot", "ToeBase": "toe1-1.{s}"}}[style]
+    names = []
+    for n in sk.names:
+        side = "l" if n.startswith("Left") else "r" if n.startswith("Right") else ""
+        names.append(words[n[len("Left"):] if side == "l" else n[len("Right"):] if side == "r" else n].format(s=side))
+    # Toes straight down in the rest pose (as the Daz file's end sites give no forward
+    # direction): the shape alone cannot tell left from right, so the names must map it.
+    toes = (sk.index("LeftToeBase"), sk.index("RightToeBase"))
+    offsets = [np.array([0.0, -6.0, 0.0]) if k in toes else j.offset.copy() for k, j in enumerate(sk.joints)]
+    original = Motion(Skeleton([Joint(j.name, j.parent, o, list(j.channels), j.rotation_order)
+                                for j, o in zip(sk.joints, offsets)], sk.metres_per_unit, sk.up_axis),
+                      m.rotations, m.root_translation, m.fps)
+    renamed = Skeleton([Joint(name, j.parent, o, list(j.channels), j.rotation_order)
+                        for name, j, o in zip(names, sk.joints, offsets)], sk.metres_per_unit, sk.up_axis, style)
+    with pytest.raises(TopologyError, match="left from right"):
+        topology_joint_map(renamed)
+    back = load_motion(save_bvh(Motion(renamed, m.rotations, m.root_translation, m.fps), tmp_path / f"{style}.bvh"))
+    assert canonical_joint_map(back.skeleton) == canonical_joint_map(sk)
+    np.testing.assert_allclose(motion_features(back, "storybeam"), motion_features(original, "storybeam"), atol=1e-6)
