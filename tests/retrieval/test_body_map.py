@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from retrieval.features import motion_features
-from retrieval.motion import Joint, Motion, Skeleton, canonical_joint_map, load_motion
+from retrieval.motion import Joint, Motion, Skeleton, canonical_joint_map, load_motion, save_bvh
 from retrieval.motion.body import JointMapError, split_side
 from retrieval.motion.topology import TopologyError, topology_joint_map
 from tests.support.synthetic_motion import make_motion, make_skeleton
@@ -277,8 +277,6 @@ def test_poser_and_makehuman_named_bvh_loads_with_the_same_features(tmp_path, st
     # The synthetic body written as a BVH under Poser/Daz names (lShldr, rShin, lToe) or
     # MakeHuman/MocapNET names (lshoulder, rknee, toe1-1.l) and read back: same canonical
     # joints, same features as the original.
-    from retrieval.motion import save_bvh
-
     sk = make_skeleton()
     m = make_motion(sk, frames=90)
     words = {"daz": {"Hips": "hip", "Spine": "chest", "Neck": "neck", "Head": "head", "Arm": "{s}Shldr",
