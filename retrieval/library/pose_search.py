@@ -41,12 +41,13 @@ from retrieval.motion import Motion
 SHORTLIST = 32
 
 #: The feature set a pose search indexes by default (:meth:`PoseSearch.build`): MR17 on
-#: the file's own body. ``"mr17-canonical"`` (the canonical body, issue 31) lands a pose
-#: from another skeleton where the same posture is in the library -- same class 0.35 ->
-#: 0.92 on a cartoon body -- but costs the library's own skeleton its jump poses (bench
-#: pose-search: jump 92.5 % -> 83.0 %, under issue 14's 85 %), so it is not the default
-#: yet: docs/notebook/results.md, "Another skeleton"; ``--body canonical`` measures it.
-POSE_FEATURE_SET = "mr17"
+#: the canonical body (issue 31), so a pose from another skeleton -- the app's posable
+#: figure, a teacher's file -- lands where the same posture is in the library (same class
+#: 0.35 -> 0.96 on a cartoon body), with the floor taken within a second of each frame,
+#: which keeps CMU's own jump poses (``storybeam bench pose-search``: jump 96.2 %, the
+#: file's own body ``"mr17"`` 92.5 %): docs/notebook/results.md, "Why the canonical body
+#: lost CMU's jumps"; ``--body source`` measures the file's own body.
+POSE_FEATURE_SET = "mr17-canonical"
 
 
 def pose_feature_set(body: str | None = None) -> str:
