@@ -56,10 +56,9 @@ def floor_height(feature_set: str | None = None) -> float:
     the standing height of the lowest of the set's floor joints (``FeatureSet.floor_joints``)
     -- the toes' (:data:`FLOOR`) on the file's body, the ankles' (:data:`ANKLE_H`) on the
     canonical body -- as the library's floor is its clips' lowest such joint."""
-    from retrieval.features import get_feature_set  # deferred: the search stack stays off the UI's start-up
-    from retrieval.library import POSE_FEATURE_SET  # deferred: as above
+    from retrieval.library import POSE_FEATURE_SET, pose_floor_joints  # deferred: the search stack stays off the UI's start-up
     standing = {"ankle": ANKLE_H, "toe": FLOOR}
-    return min(standing[j.split("_")[1]] for j in get_feature_set(feature_set or POSE_FEATURE_SET).floor_joints)
+    return min(standing[j.split("_")[1]] for j in pose_floor_joints(feature_set or POSE_FEATURE_SET))
 
 
 def two_bone(root: np.ndarray, target: np.ndarray, a: float, b: float, bend: float) -> tuple[np.ndarray, np.ndarray]:

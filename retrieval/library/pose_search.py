@@ -60,6 +60,13 @@ def pose_feature_set(body: str | None = None) -> str:
     return "mr17" if body == "source" else "mr17-canonical"
 
 
+def pose_floor_joints(feature_set: str = POSE_FEATURE_SET) -> tuple[str, ...]:
+    """The canonical joints whose lowest is the floor of ``feature_set``'s heights
+    (:attr:`FeatureSet.floor_joints`): a posed body's ``floor`` for :func:`pose_features`
+    is their standing height."""
+    return get_feature_set(feature_set).floor_joints
+
+
 def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size: float, floor: float = 0.0,
                   feature_set: str = POSE_FEATURE_SET) -> np.ndarray:
     """The (dim,) features of one posture: ``positions`` (J, 3) in metres, Y up, the
