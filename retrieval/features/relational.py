@@ -127,7 +127,7 @@ class FeatureSet:
     #: Seconds either side of a frame over which its floor is taken (0: the whole clip,
     #: :func:`clip_floor`). A local floor keeps the floor where a performer stands on a
     #: step or a box for longer than that (CMU's walks on uneven terrain, 03_03/03_04,
-    #: stand 0.4 leg lengths above the clip's lowest ground, a jump's apex height), while
+    #: stand 0.35-0.57 leg lengths above the clip's lowest ground, a jump's apex height), while
     #: a jump's apex, within half a flight time (well under a second) of the take-off,
     #: still measures from the ground it left.
     floor_window: float = 0.0
