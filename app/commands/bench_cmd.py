@@ -354,6 +354,9 @@ def _add_pose_search(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fps", type=_fps, default=30.0, help="frame rate of the library (default 30, the app's)")
     p.add_argument("--backend", choices=("auto", "numba", "numpy"), default="auto",
                    help="DTW back-end (numpy: the tablet's path without numba)")
+    p.add_argument("--against", default=None, metavar="FEATURE_SET",
+                   help="also time the same queries on a pose search over this feature set, interleaved "
+                        "with the default's (old vs new side by side; e.g. mr17, the file's own body)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -364,7 +367,8 @@ def _run_pose_search(args: argparse.Namespace) -> int:
     data = args.data or SHARED_CMU
     if not Path(data).is_dir():
         raise StoryBeamError(f"--data {data}: not a folder")
-    result = run_pose_search_bench(data, fps=args.fps, progress=not args.quiet, backend=args.backend)
+    result = run_pose_search_bench(data, fps=args.fps, progress=not args.quiet, backend=args.backend,
+                                   against=args.against)
     return _finish(args, result, format_report(result))
 
 

@@ -14,8 +14,10 @@ lengths of an adult-proportioned figure (metres, Y up, the figure faces +X, left
 * **head** tilts about the neck by at most ±40° (nod forwards or back);
 * **hips** move up and down only, between a deep crouch and a jump's apex.
 
-The pose's features are :func:`retrieval.library.pose_features` of its joints, with the
-floor at the toes' standing height (the library's floor is its clips' lowest toe).
+The pose's features are :func:`retrieval.library.pose_features` of its joints (the
+figure's own proportions; the pose search's canonical body re-poses them like any other
+skeleton's), with the floor at the standing height of the joints the feature set takes
+its floor from (:func:`floor_height`: the library's floor is its clips' lowest such joint).
 
 :class:`PoseFigure` draws the model side-on (the far, left limbs darker and a little
 behind) with a large round handle on each draggable joint (``HANDLE_DP`` across, above the
@@ -39,7 +41,7 @@ HIP_DROP, HIP_HALF, SPINE, NECK, HEAD = 0.06, 0.09, 0.25, 0.25, 0.18
 SHOULDER_DROP, SHOULDER_HALF, UPPER_ARM, FOREARM = 0.03, 0.18, 0.28, 0.27
 LEG = THIGH + SHIN  # the body size the features divide by (hip -> knee -> ankle)
 STAND_HIPS = HIP_DROP + LEG + ANKLE_H  # hips' height standing straight
-FLOOR = ANKLE_H - TOE_DROP  # the toes' standing height: the features' floor
+FLOOR = ANKLE_H - TOE_DROP  # the toes' standing height (the drawing's ground is FLOOR - TOE_DROP)
 HIPS_RANGE = (0.5, 1.45)  # deep crouch .. jump apex
 HEAD_LIMIT_DEG = 40.0
 MIN_REACH = 1 / 3  # of the straightened limb
@@ -47,6 +49,16 @@ HANDLES = ("head", "left_hand", "right_hand", "left_foot", "right_foot", "hips")
 SIDE = {"left": 1.0, "right": -1.0}
 HANDLE_DP = 60
 DEPTH_SHEAR = 0.35  # screen x = x - DEPTH_SHEAR * z: the far (left) side drawn a little behind
+
+
+def floor_height(feature_set: str | None = None) -> float:
+    """The figure's floor for a feature set's heights (the pose search's set unless named):
+    the standing height of the lowest of the set's floor joints (``FeatureSet.floor_joints``)
+    -- the toes' (:data:`FLOOR`) on the file's body, the ankles' (:data:`ANKLE_H`) on the
+    canonical body -- as the library's floor is its clips' lowest such joint."""
+    from retrieval.library import POSE_FEATURE_SET, pose_floor_joints  # deferred: the search stack stays off the UI's start-up
+    standing = {"ankle": ANKLE_H, "toe": FLOOR}
+    return min(standing[j.split("_")[1]] for j in pose_floor_joints(feature_set or POSE_FEATURE_SET))
 
 
 def two_bone(root: np.ndarray, target: np.ndarray, a: float, b: float, bend: float) -> tuple[np.ndarray, np.ndarray]:
@@ -145,8 +157,9 @@ class PoseModel:
     def features(self, feature_set: str | None = None) -> np.ndarray:
         """The pose as the library's per-frame features (the pose search's set unless named)."""
         from retrieval.library import POSE_FEATURE_SET, pose_features  # deferred: the search stack stays off the UI's start-up
-        return pose_features(self.positions(), {n: i for i, n in enumerate(CANONICAL_JOINTS)}, LEG, FLOOR,
-                             feature_set or POSE_FEATURE_SET)
+        name = feature_set or POSE_FEATURE_SET
+        return pose_features(self.positions(), {n: i for i, n in enumerate(CANONICAL_JOINTS)}, LEG,
+                             floor_height(name), name)
 
 
 _BONES = tuple((CANONICAL_JOINTS.index(a), CANONICAL_JOINTS.index(b)) for a, b in (

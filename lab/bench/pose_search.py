@@ -38,11 +38,14 @@ from retrieval.library import (
 
 
 def run_pose_search_bench(data: str | Path, fps: float = 30.0, dims: int = 6, k: int = 5,
-                          progress: bool = True, backend: str = "auto") -> dict:
-    """Held-back top-1 class accuracy and search times of pose queries (module docstring)."""
+                          progress: bool = True, backend: str = "auto", against: str | None = None,
+                          rounds: int = 5) -> dict:
+    """Held-back top-1 class accuracy and search times of pose queries (module docstring);
+    with ``against`` (a feature set), also :func:`side_by_side` times of the default set's
+    search and a search over ``against``."""
     clips = load_dataset(data, fps=fps, feature_set=POSE_FEATURE_SET,
                          progress=progress_bar("loading", "clip", progress))
-    search = PoseSearch.from_clips(clips, dims, backend)
+    search = PoseSearch.from_clips(clips, dims, backend, feature_set=POSE_FEATURE_SET)
     search.search(clips[0].features[0], k=k)  # warm-up: loads the compiled kernels
     per_class: dict[str, list[bool]] = {}
     per_class_full: dict[str, list[bool]] = {}
@@ -60,7 +63,13 @@ def run_pose_search_bench(data: str | Path, fps: float = 30.0, dims: int = 6, k:
         per_class.setdefault(c.label, []).append(hits[0].label == c.label)
         per_class_full.setdefault(c.label, []).append(full[0].label == c.label)
         queries.append({"trial": c.trial, "label": c.label, "frame": frame, "top": hits[0].as_dict()})
-    folds = _held_out_folds(clips, dims, backend, k)
+    folds = held_out_folds(clips, dims, backend, k)
+    compared = None
+    if against is not None:
+        other = load_dataset(data, fps=fps, feature_set=against, progress=progress_bar("loading", "clip", progress))
+        compared = side_by_side({POSE_FEATURE_SET: (search, clips),
+                                 against: (PoseSearch.from_clips(other, dims, backend, feature_set=against), other)},
+                                k, rounds)
     t = np.array(times)
     classes = {lab: {"queries": len(v), "correct": int(sum(v)), "accuracy": float(np.mean(v)),
                      "accuracy_full_refinement": float(np.mean(per_class_full[lab]))}
@@ -71,12 +80,37 @@ def run_pose_search_bench(data: str | Path, fps: float = 30.0, dims: int = 6, k:
         "search_ms": {"median": float(np.median(t)), "p95": float(np.percentile(t, 95)), "max": float(t.max())},
         "shortlist_agrees_with_full_refinement": f"{agree}/{len(times)}",
         "held_out_folds": folds,
+        "side_by_side": compared,
         "threads": {v: os.environ.get(v, "") for v in ("OMP_NUM_THREADS", "NUMBA_NUM_THREADS")},
         "queries_detail": queries,
     }
 
 
-def _held_out_folds(clips: list[Clip], dims: int, backend: str, k: int, n_folds: int = 3, seed: int = 0) -> dict:
+def side_by_side(searches: dict[str, tuple[PoseSearch, list[Clip]]], k: int = 5, rounds: int = 5) -> dict:
+    """Search times (ms) of two or more pose searches over the same clips, each with its own
+    features, measured interleaved so that the machine's load falls on all alike: in each of
+    ``rounds`` rounds every held-back query (the bench's) is answered by every search in
+    turn, the order rotating by query and round; median and p95 per search."""
+    names = list(searches)
+    queries = {n: [(c.features[f], c.trial) for c in clips
+                   if (f := characteristic_frame(c.features, c.label)) is not None]
+               for n, (_, clips) in searches.items()}
+    for n, (search, _) in searches.items():
+        search.search(queries[n][0][0], k=k)  # warm-up
+    times: dict[str, list[float]] = {n: [] for n in names}
+    for r in range(rounds):
+        for i in range(len(queries[names[0]])):
+            for j in range(len(names)):
+                n = names[(i + r + j) % len(names)]
+                pose, trial = queries[n][i]
+                t0 = time.perf_counter()
+                searches[n][0].search(pose, k=k, exclude=trial)
+                times[n].append((time.perf_counter() - t0) * 1e3)
+    return {"rounds": rounds, "search_ms": {n: {"median": float(np.median(t)), "p95": float(np.percentile(t, 95)),
+                                                "queries": len(t)} for n, t in times.items()}}
+
+
+def held_out_folds(clips: list[Clip], dims: int, backend: str, k: int, n_folds: int = 3, seed: int = 0) -> dict:
     """Top-1 class accuracy per class when each fold is searched in a library built from the
     other folds only (stratified by label, shuffled with ``seed``)."""
     rng = np.random.default_rng(seed)
@@ -111,4 +145,7 @@ def format_report(r: dict) -> str:
     folds = r["held_out_folds"]
     lines.append(f"held out by {folds['folds']}-fold split (library without the query's fold): " + ", ".join(
         f"{lab} {100 * c['accuracy']:.1f}%" for lab, c in folds["classes"].items()))
+    if r.get("side_by_side"):
+        lines.append(f"side by side, interleaved, {r['side_by_side']['rounds']} rounds: " + "; ".join(
+            f"{n} median {t['median']:.2f} ms, p95 {t['p95']:.2f}" for n, t in r["side_by_side"]["search_ms"].items()))
     return "\n".join(lines)

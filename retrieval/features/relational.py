@@ -31,7 +31,9 @@ tall they are or which skeleton recorded them:
 Pairs 1–12 are 3-D Euclidean distances, hence invariant to the body's position and heading.
 Heights 13–15 are measured above the clip's *floor*: a low percentile of the lowest
 foot joint (ankle or toe) over the clip, so a jump's flight phase shows as the whole body
-rising, while the file's own ground offset (BVH converters shift it) cancels out.
+rising, while the file's own ground offset (BVH converters shift it) cancels out; a set
+with a ``floor_window`` takes the floor over a second or so either side of each frame
+instead, so standing on a step is not flight.
 16–17 are signed vertical offsets (hand y minus head y).
 
 No pair mixes an upper-body joint (neck, head, shoulders, elbows, hands) with a lower-body
@@ -59,7 +61,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
+from scipy.ndimage import gaussian_filter1d, percentile_filter
 
 from retrieval.errors import StoryBeamError
 from retrieval.motion import (
@@ -122,6 +124,13 @@ class FeatureSet:
     #: source's bone directions at canonical bone lengths), so a skeleton's proportions,
     #: rest pose and joint placement drop out before any distance is taken.
     body: str = "source"
+    #: Seconds either side of a frame over which its floor is taken (0: the whole clip,
+    #: :func:`clip_floor`). A local floor keeps the floor where a performer stands on a
+    #: step or a box for longer than that (CMU's walks on uneven terrain, 03_03/03_04,
+    #: stand 0.35-0.57 leg lengths above the clip's lowest ground, a jump's apex height), while
+    #: a jump's apex, within half a flight time (well under a second) of the take-off,
+    #: still measures from the ground it left.
+    floor_window: float = 0.0
 
     @property
     def dim(self) -> int:
@@ -205,7 +214,11 @@ class FeatureSet:
                 out[:, k] = np.linalg.norm(p(a) - p(b), axis=1)
             elif spec.kind == "height":
                 if floor is None:
-                    floor = clip_floor(np.stack([p(f)[:, 1] for f in self.floor_joints], axis=1))
+                    if self.floor_window > 0 and (fps is None or not fps > 0):
+                        raise FeatureError(f"feature set {self.name!r} takes its floor over "
+                                           f"{self.floor_window:g} s: it needs the frame rate")
+                    window = int(round(self.floor_window * fps)) if self.floor_window > 0 else 0
+                    floor = clip_floor(np.stack([p(f)[:, 1] for f in self.floor_joints], axis=1), window)
                 out[:, k] = p(spec.joints[0])[:, 1] - floor
             elif spec.kind == "above":
                 a, b = spec.joints
@@ -290,12 +303,17 @@ def chain_length(a: str, b: str, rest: np.ndarray, joint_map: dict[str, int]) ->
     return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
 
 
-def clip_floor(foot_heights: np.ndarray) -> float:
+def clip_floor(foot_heights: np.ndarray, window: int = 0) -> float | np.ndarray:
     """The floor of a clip from (T, k) foot-joint heights: a low percentile of each
-    frame's lowest foot joint (see :data:`FLOOR_PERCENTILE`)."""
+    frame's lowest foot joint (see :data:`FLOOR_PERCENTILE`) over the whole clip, or,
+    with ``window`` > 0, over the frames within ``window`` of each frame (a (T,) floor
+    per frame, the clip's ends repeated; see :attr:`FeatureSet.floor_window`)."""
     if foot_heights.size == 0:
         return 0.0
-    return float(np.percentile(foot_heights.min(axis=1), FLOOR_PERCENTILE))
+    lowest = foot_heights.min(axis=1)
+    if window > 0 and len(lowest) > 1:
+        return percentile_filter(lowest, FLOOR_PERCENTILE, size=2 * window + 1, mode="nearest")
+    return float(np.percentile(lowest, FLOOR_PERCENTILE))
 
 
 def leg_length(skeleton: Skeleton, joint_map: dict[str, int] | None = None) -> float:
@@ -371,10 +389,13 @@ def available_feature_sets() -> list[str]:
 register_feature_set(MR17)
 
 #: MR17 on the canonical body (:attr:`FeatureSet.body`): the same 17 columns, every frame
-#: re-posed onto the canonical bone lengths first (issue 31: a pose on another skeleton).
+#: re-posed onto the canonical bone lengths first (issue 31: a pose on another skeleton),
+#: heights above the floor within a second of the frame (:attr:`FeatureSet.floor_window`):
+#: the pose search's set (:data:`~retrieval.library.POSE_FEATURE_SET`).
 MR17_CANONICAL = register_feature_set(FeatureSet(
-    name="mr17-canonical", specs=MR17.specs, body="canonical",
-    description="MR17 on the canonical body (the source's bone directions, canonical bone lengths)"))
+    name="mr17-canonical", specs=MR17.specs, body="canonical", floor_window=1.0,
+    description="MR17 on the canonical body (the source's bone directions, canonical bone lengths), "
+                "heights above the floor within a second"))
 
 
 def motion_features(motion: Motion, feature_set: str | FeatureSet = "mr17") -> np.ndarray:

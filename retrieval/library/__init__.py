@@ -45,6 +45,7 @@ from retrieval.library.pose_search import (
     characteristic_frame,
     pose_feature_set,
     pose_features,
+    pose_floor_joints,
 )
 
 __all__ = [
@@ -70,6 +71,7 @@ __all__ = [
     "BUNDLE_SELECTION",
     "build_bundle",
     "pose_features",
+    "pose_floor_joints",
     "PoseSearch",
     "POSE_FEATURE_SET",
     "pose_feature_set",

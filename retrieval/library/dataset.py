@@ -116,7 +116,7 @@ def _cache_key(row: LabelRow, fps: float | None, feature_set: str) -> str:
     if fs.needs_fps:  # a set with a rate: its weights and smoothing are part of what is cached
         parts.append(repr(fs.specs) + repr(HEADING_SMOOTH_SECONDS) + fs.normalise + repr(fs.centre)
                      + (fs.body if fs.body != "source" else ""))
-    elif type(fs) is not FeatureSet or fs.normalise != "legs" or fs.body != "source":  # a subclass (the frontal sets) or another scale: every field
+    elif type(fs) is not FeatureSet or fs.normalise != "legs" or fs.body != "source" or fs.floor_window:  # a subclass (the frontal sets) or another scale: every field
         parts.append(repr(fs))
     if fs.body == "canonical":
         parts.append(f"canonical-pose-{CANONICAL_POSE_VERSION}")

@@ -41,12 +41,13 @@ from retrieval.motion import Motion
 SHORTLIST = 32
 
 #: The feature set a pose search indexes by default (:meth:`PoseSearch.build`): MR17 on
-#: the file's own body. ``"mr17-canonical"`` (the canonical body, issue 31) lands a pose
-#: from another skeleton where the same posture is in the library -- same class 0.35 ->
-#: 0.92 on a cartoon body -- but costs the library's own skeleton its jump poses (bench
-#: pose-search: jump 92.5 % -> 83.0 %, under issue 14's 85 %), so it is not the default
-#: yet: docs/notebook/results.md, "Another skeleton"; ``--body canonical`` measures it.
-POSE_FEATURE_SET = "mr17"
+#: the canonical body (issue 31), so a pose from another skeleton -- the app's posable
+#: figure, a teacher's file -- lands where the same posture is in the library (same class
+#: 0.35 -> 0.96 on a cartoon body), with the floor taken within a second of each frame,
+#: which keeps CMU's own jump poses (``storybeam bench pose-search``: jump 96.2 %, the
+#: file's own body ``"mr17"`` 92.5 %): docs/notebook/results.md, "Why the canonical body
+#: lost CMU's jumps"; ``--body source`` measures the file's own body.
+POSE_FEATURE_SET = "mr17-canonical"
 
 
 def pose_feature_set(body: str | None = None) -> str:
@@ -57,6 +58,13 @@ def pose_feature_set(body: str | None = None) -> str:
     if body not in ("source", "canonical"):
         raise StoryBeamError(f"pose search: unknown body {body!r} (source or canonical)")
     return "mr17" if body == "source" else "mr17-canonical"
+
+
+def pose_floor_joints(feature_set: str = POSE_FEATURE_SET) -> tuple[str, ...]:
+    """The canonical joints whose lowest is the floor of ``feature_set``'s heights
+    (:attr:`FeatureSet.floor_joints`): a posed body's ``floor`` for :func:`pose_features`
+    is their standing height."""
+    return get_feature_set(feature_set).floor_joints
 
 
 def pose_features(positions: np.ndarray, joint_map: Mapping[str, int], body_size: float, floor: float = 0.0,

@@ -181,14 +181,20 @@ def canonical_joint_map(skeleton: Skeleton, required: bool = True) -> dict[str, 
     return {c: found[c] for c in CANONICAL_JOINTS if c in found}
 
 
-#: The canonical body's bone lengths in leg lengths (hip->knee->ankle = 1), the adult
-#: proportions of the characters' default body: :func:`canonical_pose` re-poses every
-#: skeleton onto them. ``hip_half_width`` and ``shoulder_half_width`` run along the
-#: pelvis's and the chest's lateral axis, ``shoulder_drop`` down the chest's.
+#: The canonical body's bone lengths in leg lengths (hip->knee->ankle = 1):
+#: :func:`canonical_pose` re-poses every skeleton onto them. ``hip_half_width`` and
+#: ``shoulder_half_width`` run along the pelvis's and the chest's lateral axis,
+#: ``shoulder_drop`` down the chest's. The values are the mean proportions of the CMU
+#: library's 205 skeletons (:func:`body_proportions` on each rest pose, rounded to 0.01;
+#: checked by ``tests/retrieval/test_canonical_pose.py``), so re-posing changes the
+#: library's own features least: a body with longer forearms (0.31 rather than CMU's
+#: 0.23), a longer head and a wider pelvis, tried first, weighted the hands' columns
+#: differently from the library's own and cost CMU its kick poses
+#: (docs/notebook/results.md, "Why the canonical body lost CMU's jumps").
 CANONICAL_BONES: dict[str, float] = {
-    "thigh": 0.5, "shin": 0.5, "foot": 0.19, "hip_half_width": 0.11, "lower_spine": 0.33,
-    "upper_spine": 0.33, "head": 0.12, "shoulder_half_width": 0.2, "shoulder_drop": 0.06,
-    "upper_arm": 0.35, "forearm": 0.31,
+    "thigh": 0.48, "shin": 0.52, "foot": 0.15, "hip_half_width": 0.10, "lower_spine": 0.34,
+    "upper_spine": 0.35, "head": 0.09, "shoulder_half_width": 0.2, "shoulder_drop": 0.06,
+    "upper_arm": 0.35, "forearm": 0.23,
 }
 #: (canonical joint, the joint its bone starts from, the bone's length key) for the limb
 #: joints :func:`canonical_pose` places along the source's bone direction.
@@ -201,7 +207,7 @@ _LIMBS: tuple[tuple[str, str, str], ...] = (
 )
 #: Bumped whenever :func:`canonical_pose` changes what it computes: cached features of a
 #: canonical-body set are keyed by it.
-CANONICAL_POSE_VERSION = 2
+CANONICAL_POSE_VERSION = 3
 
 #: The canonical joint map of :func:`canonical_pose`'s output.
 CANONICAL_INDEX: dict[str, int] = {c: i for i, c in enumerate(CANONICAL_JOINTS)}
@@ -286,3 +292,30 @@ def canonical_rest() -> np.ndarray:
     for c in CANONICAL_JOINTS[1:]:
         rest[CANONICAL_INDEX[c]] = rest[CANONICAL_INDEX[CANONICAL_PARENTS[c]]] + np.asarray(offsets[c], float)
     return rest
+
+
+def body_proportions(rest: np.ndarray, joint_map: dict[str, int], leg: float) -> dict[str, float]:
+    """The :data:`CANONICAL_BONES` quantities of one skeleton's (J, 3) rest pose (metres,
+    ``leg`` its leg length), in leg lengths: both sides averaged; ``lower_spine`` +
+    ``upper_spine`` as one ``trunk`` (pelvis centre to shoulder centre, plus the shoulder
+    drop, as :func:`canonical_pose` stacks them) and ``head`` from the neck (the head
+    joint's distance from the shoulder centre less the drop)."""
+    r = np.asarray(rest, dtype=np.float64) / leg
+
+    def p(name: str) -> np.ndarray:
+        return r[joint_map[name]]
+
+    def both(a: str, b: str) -> float:
+        return float(np.mean([np.linalg.norm(p(f"{s}_{a}") - p(f"{s}_{b}")) for s in ("left", "right")]))
+
+    mid = 0.5 * (p("left_hip") + p("right_hip"))
+    shoulders = 0.5 * (p("left_shoulder") + p("right_shoulder"))
+    drop = CANONICAL_BONES["shoulder_drop"]
+    return {
+        "thigh": both("knee", "hip"), "shin": both("ankle", "knee"), "foot": both("toe", "ankle"),
+        "hip_half_width": float(np.linalg.norm(p("left_hip") - p("right_hip"))) / 2,
+        "trunk": float(np.linalg.norm(shoulders - mid)) + drop,
+        "head": float(np.linalg.norm(p("head") - shoulders)) - drop,
+        "shoulder_half_width": float(np.linalg.norm(p("left_shoulder") - p("right_shoulder"))) / 2,
+        "upper_arm": both("elbow", "shoulder"), "forearm": both("hand", "elbow"),
+    }

@@ -91,8 +91,20 @@ def test_figure_features_are_the_library_features_of_its_joints():
     f = _figure()
     m = f.PoseModel()
     m.drag("right_foot", 0.6, 0.7)
-    expect = pose_features(m.positions(), J, f.LEG, f.FLOOR)
+    expect = pose_features(m.positions(), J, f.LEG, f.floor_height())
     np.testing.assert_allclose(m.features(), expect, rtol=0, atol=0)
+    # the pose search's set is the canonical body's: heights above the standing ankles,
+    # so a standing figure's feet are on the library's floor (its clips' lowest ankle)
+    from retrieval.features import get_feature_set
+    from retrieval.library import POSE_FEATURE_SET
+    assert get_feature_set(POSE_FEATURE_SET).body == "canonical" and f.floor_height() == f.ANKLE_H
+    assert f.floor_height("mr17") == f.FLOOR
+    names = get_feature_set(POSE_FEATURE_SET).names
+    stand = f.PoseModel()
+    feet = [stand.features()[names.index(n)] for n in ("lankle_height", "rankle_height")]
+    lowest = min(stand.positions()[J[a], 1] for a in ("left_ankle", "right_ankle"))
+    assert min(feet) == pytest.approx((lowest - f.ANKLE_H) / f.LEG, abs=1e-9) and max(feet) < 0.02
+    assert m.features()[names.index("rankle_height")] > 0.5
     names = ["rankle_height", "lankle_height", "hips_height"]
     from retrieval.features import MR17
     got = {n: m.features("mr17")[MR17.names.index(n)] for n in names}  # the file's own body: the figure's joints
@@ -162,7 +174,7 @@ def test_posing_by_touch_searches_the_pose_the_figure_shows(driven, library):
         pos = np.array(rec["positions"])
         _check_limits(f, pos, rec["head_deg"])
         # the tiles are the pose search's answer for the pose the figure reports
-        np.testing.assert_allclose(rec["features"], pose_features(pos, J, f.LEG, f.FLOOR), atol=1e-12)
+        np.testing.assert_allclose(rec["features"], pose_features(pos, J, f.LEG, f.floor_height()), atol=1e-12)
         expect = search.search(np.array(rec["features"]), k=len(rec["hits"]))
         assert [(h["trial"], h["frame"]) for h in rec["hits"]] == [(h.trial, h.frame) for h in expect]
         # each tile's figure starts at the moment its clip passes through the pose

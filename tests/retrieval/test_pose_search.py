@@ -13,6 +13,7 @@ import pytest
 from retrieval.errors import StoryBeamError
 from retrieval.features import MR17, leg_length
 from retrieval.library import (
+    POSE_FEATURE_SET,
     Clip,
     PoseSearch,
     characteristic_frame,
@@ -207,8 +208,12 @@ def test_pose_search_bench_on_a_small_folder(tmp_path, capsys):
         rows.append(f"m{i},{label},m{i}.bvh,")
     (folder / "labels.csv").write_text("\n".join(rows) + "\n")
     out = tmp_path / "b.json"
-    assert main(["bench", "pose-search", "--data", str(folder), "--quiet", "--json", str(out)]) == 0
+    assert main(["bench", "pose-search", "--data", str(folder), "--quiet", "--json", str(out), "--against", "mr17"]) == 0
     r = json.loads(out.read_text())
+    # old vs new side by side: both searches answered every query in each of the rounds
+    side = r["side_by_side"]
+    assert set(side["search_ms"]) == {POSE_FEATURE_SET, "mr17"} != {"mr17"}
+    assert all(t["queries"] == 6 * side["rounds"] and t["median"] > 0 for t in side["search_ms"].values())
     assert r["clips"] == 9 and r["queries"] == 6  # the jumps and runs, not the walks
     assert set(r["classes"]) == {"jump", "run"}
     for c in r["classes"].values():
@@ -219,4 +224,5 @@ def test_pose_search_bench_on_a_small_folder(tmp_path, capsys):
         top = search.search(search.features[search.index.position(q["trial"])][q["frame"]], k=1,
                             exclude=q["trial"])[0]
         assert q["top"]["trial"] == top.trial != q["trial"]
-    assert r["search_ms"]["median"] > 0 and "top-1 class" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert r["search_ms"]["median"] > 0 and "top-1 class" in printed and "side by side, interleaved" in printed
