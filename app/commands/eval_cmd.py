@@ -55,8 +55,9 @@ def register(subparsers) -> None:
                    help="comma list of storybeam, dtw-storybeam, quantized-fast, quantized, dtw, forbes")
     p.add_argument("--split", default="random",
                    help="comma list of protocols: random (stratified --folds), subject (leave one subject out)")
-    p.add_argument("--features", choices=["storybeam", "mr17"], default="storybeam",
-                   help="features of the storybeam and dtw-storybeam methods (ablation: mr17)")
+    p.add_argument("--features", choices=["storybeam", "storybeam-hands", "mr17"], default="storybeam",
+                   help="features of the storybeam and dtw-storybeam methods (ablations: mr17; storybeam-hands, "
+                        "the set plus where the hands are in the body's frame)")
     p.add_argument("--heading-weight", type=float, default=None,
                    help="weight of the turning rate in the storybeam features (ablation; default the set's)")
     p.add_argument("--normalise", choices=["legs", "arms", "chain"], default=None,
@@ -274,7 +275,7 @@ def run(args) -> int:
         sweep_dims,
     )
     # deferred: as above
-    from retrieval.features import get_feature_set, register_feature_set, storybeam_feature_set
+    from retrieval.features import get_feature_set, heading_weight_of, register_feature_set, storybeam_feature_set
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in METHODS]
@@ -289,17 +290,19 @@ def run(args) -> int:
         raise StoryBeamError("--shortlist must be at least 1")
     sweep = parse_range(args.sweep_dims) if args.sweep_dims else None
     feature_set = "mr17"
-    if any(m not in SEED_METHODS for m in methods) and args.features == "storybeam":
-        feature_set = "storybeam"
+    if any(m not in SEED_METHODS for m in methods) and args.features != "mr17":
+        feature_set = args.features
         if (args.heading_weight is not None or args.normalise is not None or args.centre is not None
                 or args.body is not None):
-            base = get_feature_set("storybeam")
-            w = base.specs[-1].weight if args.heading_weight is None else args.heading_weight
+            base = get_feature_set(feature_set)
+            w = heading_weight_of(base) if args.heading_weight is None else args.heading_weight
             norm = args.normalise or base.normalise
             centre = base.centre if args.centre is None else args.centre == "on"
             body = args.body or base.body
+            hands = max((s.weight for s in base.specs if s.kind == "across"), default=0.0)
             feature_set = register_feature_set(storybeam_feature_set(
-                w, f"storybeam-w{w:g}-{norm}-{'centred' if centre else 'raw'}-{body}", norm, centre, body)).name
+                w, f"{feature_set}-w{w:g}-{norm}-{'centred' if centre else 'raw'}-{body}", norm, centre, body,
+                hands)).name
     started = time.perf_counter()
     rows = read_labels(args.data)
     unlabelled = [r for r in rows if not r.label]
