@@ -29,6 +29,7 @@ import argparse
 import csv
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -43,19 +44,18 @@ class ManifestError(ValueError):
 
 def read_manifest(path: Path) -> list[dict[str, str]]:
     """The manifest's rows, checked: every column, a known label, unique trial names."""
-    rows, seen = [], set()
     with open(path, newline="", encoding="utf-8") as f:
-        reader = csv.DictReader(f)
-        missing = [c for c in COLUMNS if c not in (reader.fieldnames or [])]
-        if missing:
-            raise ManifestError(f"{path}:1: missing column(s) {', '.join(missing)}")
-        for line, row in enumerate(reader, 2):
-            if row["label"] not in LABELS:
-                raise ManifestError(f"{path}:{line}: label {row['label']!r} is not one of {', '.join(LABELS)}")
-            if not row["trial"] or row["trial"] in seen:
-                raise ManifestError(f"{path}:{line}: trial name {row['trial']!r} empty or repeated")
-            seen.add(row["trial"])
-            rows.append(row)
+        header = next(csv.reader(f), [])
+        f.seek(0)
+        rows = list(csv.DictReader(f))
+    if set(COLUMNS) - set(header):
+        raise ManifestError(f"{path}:1: missing column(s) {', '.join(c for c in COLUMNS if c not in header)}")
+    names = Counter(r["trial"] for r in rows)
+    for line, row in enumerate(rows, 2):
+        if row["label"] not in LABELS:
+            raise ManifestError(f"{path}:{line}: label {row['label']!r} is not one of {', '.join(LABELS)}")
+        if not row["trial"] or names[row["trial"]] > 1:
+            raise ManifestError(f"{path}:{line}: trial name {row['trial']!r} empty or repeated")
     return rows
 
 

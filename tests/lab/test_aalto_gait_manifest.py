@@ -6,10 +6,11 @@ Built on a throw-away git repository holding a tiny BVH file, so no fetched moti
 from __future__ import annotations
 
 import csv
-import importlib.util
+import runpy
 import subprocess
 from collections import Counter
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -17,14 +18,7 @@ REPO = Path(__file__).resolve().parents[2]
 RESERVED = ("Bandai-Namco-Research-Motiondataset", "IClone-CMU-Mocap")
 
 
-def _script():
-    spec = importlib.util.spec_from_file_location("aalto_gait", REPO / "scripts" / "aalto_gait.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-aalto = _script()
+aalto = SimpleNamespace(**runpy.run_path(str(REPO / "scripts" / "aalto_gait.py")))  # the script's names
 
 _BVH = """HIERARCHY
 ROOT Hips
