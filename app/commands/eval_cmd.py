@@ -85,7 +85,7 @@ def register(subparsers) -> None:
     p.add_argument("--shortlist", type=int, default=None,
                    help="clips the storybeam method re-ranks by exact float DTW (default 4)")
     p.add_argument("--summary", type=int, default=None,
-                   help="of those, how many come from the clip-summary ranking (per-feature mean and spread) "
+                   help="of those, how many come from the clip-summary ranking (per-feature mean and 10-90%% range) "
                         "instead of the codes (default 2; 0 = the code shortlist alone)")
     p.add_argument("--band", type=int, default=None, help="Sakoe-Chiba band radius in frames (default none)")
     p.add_argument("--forbes-clusters", type=int, default=None, help="k for Forbes-Fiume (default min(4^n, 1024))")

@@ -23,9 +23,22 @@ def _library(n: int = 24, seed: int = 5) -> list[np.ndarray]:
                             "storybeam") + rng.normal(scale=0.02, size=(1, 18)) for _ in range(n)]
 
 
-def test_clip_summary_is_each_columns_mean_then_spread():
+def test_clip_summary_is_each_columns_mean_then_its_10_to_90_percentile_range():
     x = np.array([[0.0, 1.0], [2.0, 1.0], [4.0, 1.0]])
-    assert clip_summary(x) == pytest.approx([2.0, 1.0, np.sqrt(8.0 / 3.0), 0.0])
+    assert clip_summary(x) == pytest.approx([2.0, 1.0, 3.2, 0.0])  # percentiles 0.4 and 3.6
+    # one glitched frame in 50 moves the spread little (the standard deviation nearly doubles)
+    t = np.sin(np.linspace(0, 6, 50))[:, None]
+    glitch = t.copy()
+    glitch[20] = 8.0
+    assert abs(clip_summary(glitch)[1] - clip_summary(t)[1]) < 0.1 * clip_summary(t)[1]
+    # the same numbers as numpy's percentiles (linear interpolation), for any length
+    rng = np.random.default_rng(2)
+    for n in (1, 2, 7, 150):
+        f = rng.normal(size=(n, 5))
+        lo, hi = np.percentile(f, (10, 90), axis=0)
+        assert clip_summary(f) == pytest.approx(np.concatenate([f.mean(axis=0), hi - lo]), abs=1e-12)
+    with pytest.raises(StoryBeamError):
+        clip_summary(np.zeros((0, 3)))
     assert SUMMARY == 2 and SHORTLIST == 4  # the defaults the notebook measures
 
 
