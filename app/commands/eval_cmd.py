@@ -6,11 +6,13 @@ study over the number of kept PCA components, with ``--plots`` as PNG figures (a
 confusion matrix per method and split). ``--split random,subject`` runs the random folds
 and leave-one-subject-out (performer / style) one after the other and tabulates both.
 
-Methods: ``storybeam`` (StoryBeam's own: code shortlist + exact float-DTW re-ranking on
-MR17 + turning rate), ``dtw-storybeam`` (exact DTW on the same features), and the seed's
+Methods: ``storybeam`` (StoryBeam's own: code + clip-summary shortlist, exact float-DTW
+re-ranking on MR17 + turning rate), ``dtw-storybeam`` (exact DTW on the same features), and the seed's
 ``quantized``, ``quantized-fast``, ``dtw``, ``forbes`` on the 17 MR17 features.
 ``--features mr17`` and ``--heading-weight`` change what the storybeam methods see
-(ablations); ``--shortlist`` how many clips it re-ranks.
+(ablations; ``--features storybeam-hands`` adds where the hands are in the body's frame);
+``--shortlist`` how many clips it re-ranks, ``--summary`` how many of those the clip
+summaries choose (0: the codes alone, the method before issue 31).
 
 Across skeletons (lab/experiment/cross_skeleton.py): ``--identity --skeleton-from DIR``
 takes each file of DIR named like a trial of --data as a clip query (same trial first?);
@@ -55,8 +57,9 @@ def register(subparsers) -> None:
                    help="comma list of storybeam, dtw-storybeam, quantized-fast, quantized, dtw, forbes")
     p.add_argument("--split", default="random",
                    help="comma list of protocols: random (stratified --folds), subject (leave one subject out)")
-    p.add_argument("--features", choices=["storybeam", "mr17"], default="storybeam",
-                   help="features of the storybeam and dtw-storybeam methods (ablation: mr17)")
+    p.add_argument("--features", choices=["storybeam", "storybeam-hands", "mr17"], default="storybeam",
+                   help="features of the storybeam and dtw-storybeam methods (ablations: mr17; storybeam-hands, "
+                        "the set plus where the hands are in the body's frame)")
     p.add_argument("--heading-weight", type=float, default=None,
                    help="weight of the turning rate in the storybeam features (ablation; default the set's)")
     p.add_argument("--normalise", choices=["legs", "arms", "chain"], default=None,
@@ -81,6 +84,9 @@ def register(subparsers) -> None:
                         "--skeleton-from the poses come from --data's own files, their trial left out")
     p.add_argument("--shortlist", type=int, default=None,
                    help="clips the storybeam method re-ranks by exact float DTW (default 4)")
+    p.add_argument("--summary", type=int, default=None,
+                   help="of those, how many come from the clip-summary ranking (per-feature mean and 10-90%% range) "
+                        "instead of the codes (default 2; 0 = the code shortlist alone)")
     p.add_argument("--band", type=int, default=None, help="Sakoe-Chiba band radius in frames (default none)")
     p.add_argument("--forbes-clusters", type=int, default=None, help="k for Forbes-Fiume (default min(4^n, 1024))")
     p.add_argument("--json", dest="json_out", help="write results as JSON here")
@@ -274,7 +280,7 @@ def run(args) -> int:
         sweep_dims,
     )
     # deferred: as above
-    from retrieval.features import get_feature_set, register_feature_set, storybeam_feature_set
+    from retrieval.features import get_feature_set, heading_weight_of, register_feature_set, storybeam_feature_set
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in METHODS]
@@ -287,19 +293,23 @@ def run(args) -> int:
         raise StoryBeamError("--folds must be at least 2")
     if args.shortlist is not None and args.shortlist < 1:
         raise StoryBeamError("--shortlist must be at least 1")
+    if args.summary is not None and args.summary < 0:
+        raise StoryBeamError("--summary must be at least 0")
     sweep = parse_range(args.sweep_dims) if args.sweep_dims else None
     feature_set = "mr17"
-    if any(m not in SEED_METHODS for m in methods) and args.features == "storybeam":
-        feature_set = "storybeam"
+    if any(m not in SEED_METHODS for m in methods) and args.features != "mr17":
+        feature_set = args.features
         if (args.heading_weight is not None or args.normalise is not None or args.centre is not None
                 or args.body is not None):
-            base = get_feature_set("storybeam")
-            w = base.specs[-1].weight if args.heading_weight is None else args.heading_weight
+            base = get_feature_set(feature_set)
+            w = heading_weight_of(base) if args.heading_weight is None else args.heading_weight
             norm = args.normalise or base.normalise
             centre = base.centre if args.centre is None else args.centre == "on"
             body = args.body or base.body
+            hands = max((s.weight for s in base.specs if s.kind == "across"), default=0.0)
             feature_set = register_feature_set(storybeam_feature_set(
-                w, f"storybeam-w{w:g}-{norm}-{'centred' if centre else 'raw'}-{body}", norm, centre, body)).name
+                w, f"{feature_set}-w{w:g}-{norm}-{'centred' if centre else 'raw'}-{body}", norm, centre, body,
+                hands)).name
     started = time.perf_counter()
     rows = read_labels(args.data)
     unlabelled = [r for r in rows if not r.label]
@@ -323,6 +333,8 @@ def run(args) -> int:
     per_split = {}
     for split in splits:
         kw = {"shortlist": args.shortlist} if args.shortlist else {}
+        if args.summary is not None:
+            kw["summary"] = args.summary
         res = evaluate(clips, methods, args.folds, args.dims, args.seed, args.band, args.forbes_clusters,
                        progress=progress_bar(f"evaluating ({split} split)", "fold", not args.quiet),
                        backend=args.backend, split=split, **kw)
@@ -340,6 +352,7 @@ def run(args) -> int:
         "split": splits[0],
         "feature_set": feature_set,
         "shortlist": args.shortlist,
+        "summary": args.summary,
         "classes": {c: sum(x.label == c for x in clips) for c in sorted({x.label for x in clips})},
         "subjects": {s: sum(x.subject == s for x in clips) for s in sorted({x.subject for x in clips})},
         "load_seconds": load_seconds,

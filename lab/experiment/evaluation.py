@@ -43,7 +43,7 @@ from retrieval.errors import StoryBeamError
 from lab.experiment.baselines import ExactDTWMatcher, ForbesFiumeMatcher
 from lab.experiment.matchers import FastMatcher, QuantizedMatcher, StoryBeamMatcher
 from retrieval.features import MR17
-from retrieval.library import SHORTLIST, Clip, StoryBeamSearcher, dtw_features_abandon
+from retrieval.library import SHORTLIST, SUMMARY, Clip, StoryBeamSearcher, dtw_features_abandon
 from retrieval.search import warm_up as warm_up_fast
 
 #: "quantized" is the research's method as it describes it (full 4ⁿ×4ⁿ table, DTW against
@@ -94,7 +94,7 @@ def subject_folds(subjects: Sequence[str]) -> list[np.ndarray]:
 
 
 def make_matcher(name: str, dims: int = 6, band: int | None = None, forbes_clusters: int | None = None,
-                 seed: int = 0, backend: str = "auto", shortlist: int = SHORTLIST):
+                 seed: int = 0, backend: str = "auto", shortlist: int = SHORTLIST, summary: int = SUMMARY):
     """A fresh matcher for a method name. Forbes–Fiume's k defaults to 4ⁿ capped at 1024
     (k-means cost grows with k × frames; the cap is reported with the results)."""
     if name == "quantized":
@@ -106,7 +106,7 @@ def make_matcher(name: str, dims: int = 6, band: int | None = None, forbes_clust
         m.name = name
         return m
     if name == "storybeam":
-        return StoryBeamMatcher(dims, band, shortlist, backend)
+        return StoryBeamMatcher(dims, band, shortlist, backend, summary)
     if name == "forbes":
         k = forbes_clusters if forbes_clusters else min(4**dims, 1024)
         return ForbesFiumeMatcher(clusters=k, band=band, backend=backend, seed=seed)
@@ -196,7 +196,8 @@ def stratified_subset(clips: Sequence[Clip], size: int, seed: int = 0) -> list[C
 def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int = 3, dims: int = 6,
              seed: int = 0, band: int | None = None, forbes_clusters: int | None = None,
              progress: Callable[[int, int], None] | None = None, matcher_factory: Callable | None = None,
-             backend: str = "auto", split: str = "random", shortlist: int = SHORTLIST) -> dict[str, MethodResult]:
+             backend: str = "auto", split: str = "random", shortlist: int = SHORTLIST,
+             summary: int = SUMMARY) -> dict[str, MethodResult]:
     """Run the k-fold 1-NN protocol for each method; returns results keyed by method.
     ``split``: "random" (stratified ``folds``) or "subject" (leave one subject group out;
     ``folds`` is then ignored). ``progress(done, total)`` is called after each fold."""
@@ -219,7 +220,7 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
         factory = matcher_factory or make_matcher
         matchers = {}
         for name in methods:  # build phase, timed per method
-            kw = {"shortlist": shortlist} if name == "storybeam" and matcher_factory is None else {}
+            kw = {"shortlist": shortlist, "summary": summary} if name == "storybeam" and matcher_factory is None else {}
             matcher = factory(name, dims=dims, band=band, forbes_clusters=forbes_clusters, seed=seed + f,
                               backend=backend, **kw)
             view = seed_view if name in SEED_METHODS else clips

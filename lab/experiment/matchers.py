@@ -15,7 +15,7 @@ import numpy as np
 from retrieval.codes import MAX_FULL_DIMS, DiffTable, Quantizer, SplitTable
 from retrieval.dtw import dtw_codes
 from retrieval.errors import StoryBeamError
-from retrieval.library import SHORTLIST, Clip, StoryBeamSearcher
+from retrieval.library import SHORTLIST, SUMMARY, Clip, StoryBeamSearcher
 from retrieval.search import FastSearcher, SearchStats
 
 
@@ -125,7 +125,8 @@ class FastMatcher:
 
 class StoryBeamMatcher:
     """StoryBeam's own method (:class:`~retrieval.library.StoryBeamSearcher`): the
-    ``shortlist`` nearest references by the seed's code DTW (exact fast search), re-ranked
+    ``shortlist`` nearest references by the seed's code DTW (exact fast search) and
+    ``summary`` of them by clip summary (:func:`~retrieval.library.clip_summary`), re-ranked
     by exact DTW on the float features. ``distances`` returns the exact float-DTW
     distance of the nearest re-ranked reference and inf for every other one — enough for
     the 1-NN protocol's argmin. Registered as "storybeam"; it runs on whatever features
@@ -133,10 +134,12 @@ class StoryBeamMatcher:
 
     name = "storybeam"
 
-    def __init__(self, dims: int = 6, band: int | None = None, shortlist: int = SHORTLIST, backend: str = "auto"):
+    def __init__(self, dims: int = 6, band: int | None = None, shortlist: int = SHORTLIST, backend: str = "auto",
+                 summary: int = SUMMARY):
         self.dims = dims
         self.band = band
         self.shortlist = shortlist
+        self.summary = summary
         self.backend = backend
         self.searcher: StoryBeamSearcher | None = None
         self.shortlist_cells = 0
@@ -145,7 +148,7 @@ class StoryBeamMatcher:
         if not references:
             raise MatcherError("no reference clips to fit on")
         self.searcher = StoryBeamSearcher.fit([c.features for c in references], self.dims, self.shortlist,
-                                              self.band, self.backend)
+                                              self.band, self.backend, summary=self.summary)
         return self
 
     def distances(self, query: Clip) -> np.ndarray:

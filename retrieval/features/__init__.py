@@ -17,11 +17,21 @@ from retrieval.features.relational import (
     leg_length,
     motion_features,
     HEADING_SMOOTH_SECONDS,
+    body_axes,
     heading_rate,
     register_feature_set,
 )
 from retrieval.features.frontal import FRONTAL, FrontalFeatureSet, face_camera, mean_heading, measured_rest
-from retrieval.features.storybeam_set import HEADING_WEIGHT, STORYBEAM, mr17_columns, storybeam_feature_set
+from retrieval.features.storybeam_set import (
+    HANDS_WEIGHT,
+    HEADING_WEIGHT,
+    STORYBEAM,
+    STORYBEAM_HANDS,
+    hand_specs,
+    heading_weight_of,
+    mr17_columns,
+    storybeam_feature_set,
+)
 
 __all__ = [
     "FeatureError",
@@ -31,9 +41,14 @@ __all__ = [
     "MR17_CANONICAL",
     "STORYBEAM",
     "HEADING_WEIGHT",
+    "HANDS_WEIGHT",
+    "STORYBEAM_HANDS",
+    "hand_specs",
+    "heading_weight_of",
     "storybeam_feature_set",
     "mr17_columns",
     "heading_rate",
+    "body_axes",
     "HEADING_SMOOTH_SECONDS",
     "leg_length",
     "register_feature_set",

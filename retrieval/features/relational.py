@@ -92,9 +92,11 @@ class FeatureError(StoryBeamError):
 @dataclass(frozen=True)
 class FeatureSpec:
     """One feature: ``kind`` is "distance" (|a−b|), "height" (a above the clip's floor),
-    "above" (signed vertical offset a.y − b.y) or "heading_rate" (the body's turning rate,
+    "above" (signed vertical offset a.y − b.y), "heading_rate" (the body's turning rate,
     see :func:`heading_rate`; joints are left hip, right hip, left shoulder, right
-    shoulder); ``joints`` are canonical joint names; ``weight`` multiplies the value."""
+    shoulder), or "across" / "forward" (the horizontal offset a − b along the body's own
+    left-to-right or forward axis, see :func:`body_axes`; joints are a, b, then the four
+    heading joints); ``joints`` are canonical joint names; ``weight`` multiplies the value."""
 
     name: str
     kind: str
@@ -158,7 +160,7 @@ class FeatureSet:
     @property
     def needs_fps(self) -> bool:
         """Whether a feature is a rate (its value depends on the frame rate)."""
-        return any(s.kind == "heading_rate" for s in self.specs)
+        return any(s.kind in _RATE_KINDS for s in self.specs)
 
     def from_positions(self, pos: np.ndarray, joint_map: dict[str, int], body_size: float,
                        fps: float | None = None, rest: np.ndarray | None = None) -> np.ndarray:
@@ -190,6 +192,7 @@ class FeatureSet:
             return pos[:, joint_map[name]]
 
         floor = None
+        axes: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray]] = {}
         out = np.empty((pos.shape[0], self.dim))
         scale = np.full(self.dim, 1.0 / body_size)
         if self.normalise == "chain":
@@ -223,6 +226,15 @@ class FeatureSet:
             elif spec.kind == "above":
                 a, b = spec.joints
                 out[:, k] = p(a)[:, 1] - p(b)[:, 1]
+            elif spec.kind in ("across", "forward"):
+                if fps is None or not fps > 0:
+                    raise FeatureError(f"feature {spec.name!r} smooths the heading over time: it needs the frame rate")
+                key = tuple(spec.joints[2:])
+                if key not in axes:
+                    axes[key] = body_axes(pos, [joint_map[j] for j in key], fps)
+                a, b = spec.joints[:2]
+                h = (p(a) - p(b))[:, [0, 2]]
+                out[:, k] = (h * axes[key][0 if spec.kind == "across" else 1]).sum(axis=1)
             elif spec.kind == "heading_rate":
                 if fps is None or not fps > 0:
                     raise FeatureError(f"feature {spec.name!r} is a rate: it needs the frame rate")
@@ -242,6 +254,47 @@ class FeatureSet:
 HEADING_SMOOTH_SECONDS = 0.25
 
 
+def _across(pos: np.ndarray, pairs: Sequence[int]) -> np.ndarray:
+    """(T, 2) sum of the unit horizontal (x, z) left→right vectors of the (left, right)
+    joint-index ``pairs``: the body's across direction, pelvis and shoulder swing partly
+    cancelling (zero where a pair's joints coincide horizontally)."""
+    across = np.zeros((pos.shape[0], 2))
+    for left, right in zip(pairs[0::2], pairs[1::2]):
+        v = pos[:, right][:, [0, 2]] - pos[:, left][:, [0, 2]]
+        n = np.linalg.norm(v, axis=1, keepdims=True)
+        across += np.divide(v, n, out=np.zeros_like(v), where=n > 1e-9)
+    return across
+
+
+def body_axes(pos: np.ndarray, pairs: Sequence[int], fps: float,
+              smooth_seconds: float = HEADING_SMOOTH_SECONDS) -> tuple[np.ndarray, np.ndarray]:
+    """The body's own horizontal axes per frame: ((T, 2) unit left→right, (T, 2) unit
+    forward), as (x, z) components, from the ``pairs`` of (left, right) joint indices
+    (hips, shoulders; :func:`_across`), smoothed over time like :func:`heading_rate` (a
+    Gaussian of ``smooth_seconds``, so the pelvis's swing over a stride does not rock
+    the frame). Forward is up × left→right, i.e. the way the chest faces on a Y-up
+    right-handed skeleton. Projecting a horizontal offset (a hand minus the neck) on
+    them says *where* the hand is — out to the side, across the body, in front of the
+    chest — whatever way the performer faces: what a distance cannot (a hand to the
+    side and a hand in front are as far from the shoulder). Frames with no defined
+    across direction keep the nearest defined one (all (1, 0) when none is)."""
+    across = _across(np.asarray(pos, dtype=np.float64), pairs)
+    sigma = smooth_seconds * fps
+    if sigma > 0 and len(across) > 1:
+        across = gaussian_filter1d(across, sigma, axis=0, mode="nearest")
+    n = np.linalg.norm(across, axis=1)
+    ok = n > 1e-9
+    if not ok.any():
+        across, n, ok = np.tile([1.0, 0.0], (len(across), 1)), np.ones(len(across)), np.ones(len(across), bool)
+    elif not ok.all():
+        idx = np.flatnonzero(ok)
+        nearest = idx[np.clip(np.searchsorted(idx, np.arange(len(across))), 0, len(idx) - 1)]
+        across, n = across[nearest], n[nearest]
+    across = across / n[:, None]
+    forward = np.column_stack([across[:, 1], -across[:, 0]])
+    return across, forward
+
+
 def heading_rate(pos: np.ndarray, pairs: Sequence[int], fps: float,
                  smooth_seconds: float = HEADING_SMOOTH_SECONDS) -> np.ndarray:
     """(T,) signed turning rate of the body about the vertical, in radians per second
@@ -258,11 +311,7 @@ def heading_rate(pos: np.ndarray, pairs: Sequence[int], fps: float,
     body, so the rate is invariant to bone lengths, units, root offset and the up axis's
     horizontal frame, and it is resampled consistently (a rate, not a per-frame step)."""
     pos = np.asarray(pos, dtype=np.float64)
-    across = np.zeros((pos.shape[0], 2))
-    for left, right in zip(pairs[0::2], pairs[1::2]):
-        v = pos[:, right][:, [0, 2]] - pos[:, left][:, [0, 2]]
-        n = np.linalg.norm(v, axis=1, keepdims=True)
-        across += np.divide(v, n, out=np.zeros_like(v), where=n > 1e-9)
+    across = _across(pos, pairs)
     if pos.shape[0] < 2:
         return np.zeros(pos.shape[0])
     yaw = np.unwrap(np.arctan2(-across[:, 1], across[:, 0]))
@@ -360,7 +409,9 @@ MR17 = FeatureSet(
 )
 
 _REGISTRY: dict[str, FeatureSet] = {}
-_KINDS = {"distance": 2, "height": 1, "above": 2, "heading_rate": 4}
+_KINDS = {"distance": 2, "height": 1, "above": 2, "heading_rate": 4, "across": 6, "forward": 6}
+#: Kinds whose value depends on the frame rate (a rate, or a heading smoothed over seconds).
+_RATE_KINDS = ("heading_rate", "across", "forward")
 
 
 def register_feature_set(feature_set: FeatureSet) -> FeatureSet:

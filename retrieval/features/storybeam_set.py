@@ -39,12 +39,39 @@ BODY = "source"
 
 _TURN_JOINTS = ("left_hip", "right_hip", "left_shoulder", "right_shoulder")
 
+#: Weight of the four hand-placement columns (:func:`hand_specs`; leg lengths, as the
+#: distances). 0 leaves them out (issue 31's ablation in docs/notebook/results.md).
+HANDS_WEIGHT = 0.0
+
+
+def hand_specs(weight: float = 1.0) -> tuple[FeatureSpec, ...]:
+    """Where each hand is in the body's own horizontal frame: its offset from the neck
+    along the body's left-to-right axis ("across": out to the side vs across the chest)
+    and along its forward axis (in front of the chest vs beside or behind it), in leg
+    lengths (:func:`~retrieval.features.relational.body_axes`). A distance cannot say
+    this — a hand out to the side and a hand in front are equally far from the
+    shoulder — but a wave (the hand swinging across in front of the face), a guiding
+    gesture (the arm held out forward and to the side) and a raised hand differ exactly
+    there. Invariant to position and heading (the frame turns with the body), to bone
+    lengths and units (leg lengths); the neck, not the head, because rigs disagree
+    about where the head joint sits."""
+    out = []
+    for side in ("left", "right"):
+        for kind in ("across", "forward"):
+            out.append(FeatureSpec(f"{side[0]}hand_{kind}", kind, (f"{side}_hand", "neck") + _TURN_JOINTS,
+                                   f"where the {side} hand is: {'to the side / across the body' if kind == 'across' else 'in front of / behind the chest'}",
+                                   weight))
+    return tuple(out)
+
 
 def storybeam_feature_set(heading_weight: float = HEADING_WEIGHT, name: str = "storybeam",
-                          normalise: str = NORMALISE, centre: bool = CENTRE, body: str = BODY) -> FeatureSet:
+                          normalise: str = NORMALISE, centre: bool = CENTRE, body: str = BODY,
+                          hands_weight: float = HANDS_WEIGHT) -> FeatureSet:
     """MR17's pairs plus the turning rate at ``heading_weight``, lengths normalised by
-    ``normalise``, on the ``body`` (the registered set uses :data:`HEADING_WEIGHT`,
-    :data:`NORMALISE` and :data:`BODY`; other values are for ablations)."""
+    ``normalise``, on the ``body``, then — when ``hands_weight`` > 0 — the four
+    hand-placement columns of :func:`hand_specs` at that weight (the registered set uses
+    :data:`HEADING_WEIGHT`, :data:`NORMALISE`, :data:`BODY` and :data:`HANDS_WEIGHT`;
+    other values are for ablations; ``"storybeam-hands"`` is the set with hands at 1)."""
     return FeatureSet(
         name=name,
         normalise=normalise,
@@ -54,11 +81,18 @@ def storybeam_feature_set(heading_weight: float = HEADING_WEIGHT, name: str = "s
         specs=MR17.specs + (
             FeatureSpec("heading_rate", "heading_rate", _TURN_JOINTS,
                         "turning: a walk that turns left / right vs a straight walk", heading_weight),
-        ),
+        ) + (hand_specs(hands_weight) if hands_weight > 0 else ()),
     )
 
 
 STORYBEAM = register_feature_set(storybeam_feature_set())
+#: The StoryBeam set with the hand-placement columns at weight 1 (issue 31's ablation).
+STORYBEAM_HANDS = register_feature_set(storybeam_feature_set(name="storybeam-hands", hands_weight=1.0))
+
+
+def heading_weight_of(feature_set: FeatureSet) -> float:
+    """The weight of a StoryBeam set's turning-rate column."""
+    return next(s.weight for s in feature_set.specs if s.kind == "heading_rate")
 
 
 def mr17_columns(features: np.ndarray) -> np.ndarray:

@@ -37,7 +37,7 @@ from retrieval.library.grouping import (
 from retrieval.library.index import MotionIndex
 from retrieval.library.motion_choice import choose_clip, clip_path
 from retrieval.library.storybeam_search import DIMS as STORYBEAM_DIMS
-from retrieval.library.storybeam_search import SHORTLIST, StoryBeamSearcher
+from retrieval.library.storybeam_search import SHORTLIST, SUMMARY, StoryBeamSearcher, clip_summary
 from retrieval.library.pose_search import (
     CHARACTERISTIC,
     POSE_FEATURE_SET,
@@ -62,6 +62,8 @@ __all__ = [
     "StoryBeamSearcher",
     "Hit",
     "SHORTLIST",
+    "SUMMARY",
+    "clip_summary",
     "STORYBEAM_DIMS",
     "dtw_features_abandon",
     "dtw_features_abandon_t",

@@ -45,7 +45,7 @@ from retrieval.codes import DiffTable, Quantizer
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import clip_from_motion, load_dataset
-from retrieval.library.storybeam_search import SHORTLIST, StoryBeamSearcher
+from retrieval.library.storybeam_search import SHORTLIST, SUMMARY, StoryBeamSearcher
 from retrieval.motion import Motion
 from retrieval.search import FastSearcher, SubsequenceSearcher
 
@@ -64,7 +64,7 @@ class MotionIndex:
     def __init__(self, quantizer: Quantizer, codes: Sequence[np.ndarray], trials: list[str], labels: list[str],
                  fps: float, feature_set: str = "mr17", band: int | None = None, backend: str = "auto",
                  method: str = "quantized", features: Sequence[np.ndarray] | None = None,
-                 shortlist: int = SHORTLIST):
+                 shortlist: int = SHORTLIST, summary: int = SUMMARY):
         if not (len(trials) == len(labels) == len(codes)):
             raise StoryBeamError("index: trials, labels and codes differ in length")
         if not codes:
@@ -76,6 +76,7 @@ class MotionIndex:
             raise StoryBeamError("index: the storybeam method needs one feature array per clip, as long as its codes")
         self.method = method
         self.shortlist = int(shortlist)
+        self.summary = int(summary)
         self.quantizer = quantizer
         self.codes = [np.ascontiguousarray(c, dtype=np.int32) for c in codes]
         self.trials = list(trials)
@@ -91,7 +92,7 @@ class MotionIndex:
             # float32 precision, so that a saved and reloaded index answers bit for bit the same
             self.clip_features = [np.asarray(f, dtype=np.float32).astype(np.float64) for f in features]
             self._storybeam = StoryBeamSearcher(quantizer, self.codes, self.clip_features, shortlist, band, backend,
-                                                searcher=self.searcher)
+                                                searcher=self.searcher, summary=summary)
         self._subsequence: SubsequenceSearcher | None = None
         self._subsets: dict[tuple[int, ...], FastSearcher] = {}  # fast searchers over subsets (see among)
         self._position = {t: i for i, t in enumerate(self.trials)}
@@ -209,7 +210,7 @@ class MotionIndex:
     def query(self, query: Motion | Clip | np.ndarray, k: int = 5) -> list[Match]:
         """The ``k`` nearest clips to a motion (resampled to the index's fps) or to a
         (frames, d) feature array of the index's feature set, nearest first (storybeam:
-        by exact float DTW among the code shortlist; quantized: by code DTW)."""
+        by exact float DTW among the code and clip-summary shortlist; quantized: by code DTW)."""
         if self._storybeam is not None:
             # the query at the library's float32 precision: a clip's own features give exactly 0
             feats = np.asarray(self.features(query), dtype=np.float32).astype(np.float64)
@@ -268,6 +269,7 @@ class MotionIndex:
         meta = {
             "format": FORMAT, "version": VERSION, "fps": self.fps, "dims": self.dims,
             "band": self.band, "feature_set": self.feature_set, "method": self.method, "shortlist": self.shortlist,
+            "summary": self.summary,
             "trials": self.trials, "labels": self.labels,
         }
         (folder / JSON_NAME).write_text(json.dumps(meta, indent=1))
@@ -295,6 +297,7 @@ class MotionIndex:
             trials, labels = list(meta["trials"]), list(meta["labels"])
             fps, band, fset = float(meta["fps"]), meta.get("band"), str(meta.get("feature_set", "mr17"))
             method, shortlist = str(meta.get("method", "quantized")), int(meta.get("shortlist", SHORTLIST))
+            summary = int(meta.get("summary", SUMMARY))
         except (KeyError, ValueError, TypeError) as exc:
             raise IndexFormatError(f"{jpath}: damaged index ({type(exc).__name__}: {exc})") from None
         try:
@@ -319,6 +322,6 @@ class MotionIndex:
         feats = None if feats_all is None else [feats_all[offsets[i]:offsets[i + 1]] for i in range(len(trials))]
         try:
             return cls(quantizer, codes, trials, labels, fps, fset, band, method=method, features=feats,
-                       shortlist=shortlist)
+                       shortlist=shortlist, summary=summary)
         except StoryBeamError as exc:
             raise IndexFormatError(f"{jpath}: {exc}") from None

@@ -6,10 +6,23 @@ turning rate, :mod:`retrieval.features.storybeam_set`):
 
 1. **Shortlist.** PCA (``dims`` components) + the seed's 2-bit quantiser turn ``q`` into
    codes; the fast search (:class:`~retrieval.search.FastSearcher`, the 20 KiB
-   difference table, lower bounds, early abandoning) returns the ``shortlist`` library
-   clips nearest by look-up-table DTW (ties by library order), by default in its
+   difference table, lower bounds, early abandoning) returns the ``shortlist − summary``
+   library clips nearest by look-up-table DTW (ties by library order), by default in its
    run-length form (``mode="runs"``, :data:`SHORTLIST_MODE`), which costs about a third
-   of the exact code search and, measured, shortlists as well for the re-ranking.
+   of the exact code search and, measured, shortlists as well for the re-ranking. The
+   other ``summary`` places (:data:`SUMMARY`, 2 of 4) go to the clips nearest by their
+   **summary** (:func:`clip_summary`: each feature's mean and the range between its 10th
+   and 90th percentiles over the clip; Euclidean distance, ties by library order) that the
+   codes did not already bring. Why (issue 31): a performer in a style the library has
+   never seen — an elderly wave, an active walk — shifts the 2-bit codes of every frame,
+   and the code DTW then shortlists the wrong gesture (on bandai2, leaving one style out,
+   all 4 shortlisted clips were raise-ups for 8 of the 21 left-hand waves, which exact
+   DTW over the whole library answers right: 84.3 % against 90.5 %; now 90.0 %). A
+   clip's summary says how much each feature *varies* (a waving hand's distances swing,
+   a raised one's hold) and survives a change of tempo and timing. It costs one sort of
+   the query's columns and one (2d)-vector distance per library clip; the shortlist keeps
+   its size, and the search costs 4–10 % more (the clips the summary brings are ones the
+   early abandoning cannot cut short; docs/notebook/results.md).
 2. **Re-rank.** Each shortlisted clip's distance is then exact DTW with Euclidean frame
    cost on the float features (:func:`~retrieval.dtw.dtw_features`, normalised by
    ``len(q) + len(r)``) — the same distance as the exact-DTW baseline on the same
@@ -76,6 +89,11 @@ SHORTLIST = 4
 #: Default kept PCA components of the shortlist's codes (the seed's n).
 DIMS = 6
 
+#: Of the ``shortlist`` clips re-ranked, how many come from the clip-summary ranking
+#: (:func:`clip_summary`) instead of the code search (module docstring; the ablation in
+#: docs/notebook/results.md, issue 31). 0 is the code shortlist alone.
+SUMMARY = 2
+
 #: How the shortlist's code distances are computed (:class:`~retrieval.search.FastSearcher`
 #: ``mode``): "runs", the run-length form of the code DTW, ranks the shortlist at about a
 #: third of the exact code search's cost and, measured on both shared data sets, picks
@@ -92,24 +110,59 @@ def centre(features: np.ndarray) -> np.ndarray:
     return f - f.mean(axis=0, keepdims=True)
 
 
+#: The percentiles whose difference is a feature's spread in :func:`clip_summary`.
+SPREAD_PERCENTILES = (10.0, 90.0)
+
+
+def clip_summary(features: np.ndarray) -> np.ndarray:
+    """(2d,) summary of (frames, d) features: each column's mean over the frames, then
+    each column's spread, the range between its :data:`SPREAD_PERCENTILES` (float64). A
+    percentile range rather than the standard deviation so that a few glitched or
+    transitional frames move it little; measured against the standard deviation and the
+    mean absolute deviation (docs/notebook/results.md, issue 31), it held best when the
+    style or the performer is new."""
+    f = np.asarray(features, dtype=np.float64)
+    if f.ndim != 2 or f.shape[0] == 0:
+        raise StoryBeamError(f"clip summary: features must be (frames > 0, d), got {f.shape}")
+    # np.percentile's linear interpolation, on one sort of the columns (several times
+    # faster than np.percentile itself, which the search pays once per query)
+    ranked = np.sort(f, axis=0)
+    at = [p / 100.0 * (len(ranked) - 1) for p in SPREAD_PERCENTILES]
+    lo, hi = (ranked[int(x)] + (x - int(x)) * (ranked[min(int(x) + 1, len(ranked) - 1)] - ranked[int(x)]) for x in at)
+    return np.concatenate([f.mean(axis=0), hi - lo])
+
+
+def _rank_key(hit: Hit) -> tuple[float, float, int]:
+    """Re-ranking order: exact distance, then code distance (a clip the summary brought
+    has none: after those that have one), then library order."""
+    return hit.distance, np.inf if hit.code_distance is None else hit.code_distance, hit.index
+
+
 class StoryBeamSearcher:
     """Code shortlist + exact float-DTW re-ranking over a fixed library (see the module
     docstring). ``features`` are the library's (frames, d) float features, ``codes``
-    their codes under ``quantizer``."""
+    their codes under ``quantizer``; ``summary`` of the ``shortlist`` places go to the
+    clip-summary ranking (0 here, so a searcher built directly keeps the code shortlist;
+    :meth:`fit` and :class:`~retrieval.library.MotionIndex` use :data:`SUMMARY`)."""
 
     def __init__(self, quantizer: Quantizer, codes: Sequence[np.ndarray], features: Sequence[np.ndarray],
                  shortlist: int = SHORTLIST, band: int | None = None, backend: str = "auto",
-                 searcher: FastSearcher | None = None, mode: str = SHORTLIST_MODE):
+                 searcher: FastSearcher | None = None, mode: str = SHORTLIST_MODE, summary: int = 0):
         if len(codes) != len(features) or not codes:
             raise StoryBeamError("storybeam search: codes and features must be non-empty and of equal length")
         if shortlist < 1:
             raise StoryBeamError(f"storybeam search: shortlist must be >= 1, got {shortlist}")
+        if summary < 0:
+            raise StoryBeamError(f"storybeam search: summary must be >= 0, got {summary}")
         self.quantizer = quantizer
         self.codes = [np.ascontiguousarray(c, dtype=np.int32) for c in codes]
         self.features = [np.ascontiguousarray(f, dtype=np.float64) for f in features]
         # the features transposed, for the compiled no-band re-ranking kernel (saves a copy per candidate)
         self.features_t = [np.ascontiguousarray(f.T) for f in self.features] if band is None else None
         self.shortlist = int(shortlist)
+        self.summary = int(summary)
+        # every clip's summary (clip_summary), for the summary part of the shortlist
+        self.summaries = np.stack([clip_summary(f) for f in self.features]) if self.summary else None
         self.band = band
         self.table = DiffTable.from_ratios(quantizer.ratios)
         if mode == "runs" and band is not None:
@@ -124,13 +177,14 @@ class StoryBeamSearcher:
 
     @classmethod
     def fit(cls, features: Sequence[np.ndarray], dims: int = DIMS, shortlist: int = SHORTLIST,
-            band: int | None = None, backend: str = "auto", mode: str = SHORTLIST_MODE) -> "StoryBeamSearcher":
+            band: int | None = None, backend: str = "auto", mode: str = SHORTLIST_MODE,
+            summary: int = SUMMARY) -> "StoryBeamSearcher":
         """PCA and quantiser fitted on the library's frames only, then the searcher."""
         if not features:
             raise StoryBeamError("storybeam search: no clips to index")
         quantizer = Quantizer.fit(np.concatenate(list(features), axis=0), dims)
         return cls(quantizer, [quantizer.encode(f) for f in features], features, shortlist, band, backend,
-                   mode=mode)
+                   mode=mode, summary=summary)
 
     def __len__(self) -> int:
         return len(self.codes)
@@ -155,24 +209,35 @@ class StoryBeamSearcher:
 
     def shortlist_of(self, query: np.ndarray, k: int, codes: np.ndarray | None = None,
                      exclude: int | Collection[int] | None = None) -> list[tuple[int, float]]:
-        """Step 1, the code shortlist of (frames, d) float features ``query`` (``codes``: its
-        codes, when the caller has them): the ``max(shortlist, k)`` code-nearest clips, plus
-        one per position in ``exclude``, those positions then dropped, as (library index,
-        code distance) pairs in code order (ties by library order) — what :meth:`rerank`
-        takes."""
+        """Step 1, the shortlist of (frames, d) float features ``query`` (``codes``: its
+        codes, when the caller has them): the ``max(shortlist − summary, k)`` code-nearest
+        clips, plus one per position in ``exclude``, those positions then dropped, as
+        (library index, code distance) pairs in code order (ties by library order); then
+        the ``summary`` summary-nearest clips not among them nor excluded, as (library
+        index, None) — what :meth:`rerank` takes."""
         drop = () if exclude is None else (exclude,) if isinstance(exclude, (int, np.integer)) else exclude
         c = self.quantizer.encode(query) if codes is None else np.ascontiguousarray(codes, dtype=np.int32)
-        want = min(len(self), max(self.shortlist, k) + len(drop))
-        res = self.searcher.search([c], k=want, parallel=False)
-        return [(int(i), float(d)) for i, d in zip(res.indices[0], res.distances[0]) if i >= 0 and int(i) not in drop]
+        want = min(len(self), max(self.shortlist - self.summary, k) + len(drop))
+        out: list[tuple[int, float | None]] = []
+        if want > 0:
+            res = self.searcher.search([c], k=want, parallel=False)
+            out = [(int(i), float(d)) for i, d in zip(res.indices[0], res.distances[0])
+                   if i >= 0 and int(i) not in drop]
+        if self.summaries is not None:
+            taken = {i for i, _ in out} | {int(i) for i in drop}
+            gap = np.linalg.norm(self.summaries - clip_summary(query), axis=1)
+            extra = [int(i) for i in np.argsort(gap, kind="stable") if int(i) not in taken][: self.summary]
+            out += [(i, None) for i in extra]
+        return out
 
     def identity_searcher(self) -> "StoryBeamSearcher":
         """The searcher of :meth:`find`: the same method over the library's centred
         features (its own PCA and quantiser, fitted on those frames), built once."""
         if self._identity is None:
             dims = self.quantizer.n
+            # the code shortlist alone: identity (205 / 205 after a round trip) was measured so
             self._identity = StoryBeamSearcher.fit([centre(f) for f in self.features], dims, self.shortlist,
-                                                   self.band, self.backend, self.mode)
+                                                   self.band, self.backend, self.mode, summary=0)
         return self._identity
 
     def find(self, query: np.ndarray, k: int = 1, exclude: int | None = None) -> list[Hit]:
@@ -192,7 +257,7 @@ class StoryBeamSearcher:
         numpy path: one sweep, no abandoning), so asking for all of them costs no more."""
         return resolve_backend(self.backend) == "numpy"
 
-    def rerank(self, q: np.ndarray, candidates: Sequence[tuple[int, float]], k: int) -> list[Hit]:
+    def rerank(self, q: np.ndarray, candidates: Sequence[tuple[int, float | None]], k: int) -> list[Hit]:
         """Exact float DTW of ``q`` to each (index, code distance) candidate, the ``k``
         nearest kept. Candidates come in code order, so the first few set a tight
         abandoning limit; a candidate whose partial DTW already exceeds the current
@@ -205,7 +270,7 @@ class StoryBeamSearcher:
             # there, which changes no answer: an abandoned candidate is never in the k best)
             ds = dtw_features_many(q, [self.features[i] for i, _ in candidates], self.band)
             best = [Hit(i, float(d), cd) for (i, cd), d in zip(candidates, ds)]
-            best.sort(key=lambda h: (h.distance, h.code_distance, h.index))
+            best.sort(key=_rank_key)
             return best[:k]
         # the compiled no-band kernel straight away when the arrays fit it (checked once here)
         direct = (self.features_t is not None and q.ndim == 2 and len(q) > 0
@@ -219,6 +284,6 @@ class StoryBeamSearcher:
                                          None if self.features_t is None else self.features_t[i])
             if d <= limit:
                 best.append(Hit(i, d, cd))
-                best.sort(key=lambda h: (h.distance, h.code_distance, h.index))
+                best.sort(key=_rank_key)
                 del best[k:]
         return best

@@ -246,7 +246,7 @@ def test_shortlist_mode_runs_by_default_and_exact_on_request():
 @pytest.mark.parametrize("shortlist", [1, 3, 8])
 def test_search_is_exact_float_dtw_over_the_code_shortlist(shortlist):
     lib = _library()
-    s = StoryBeamSearcher.fit(lib[4:], dims=4, shortlist=shortlist)
+    s = StoryBeamSearcher.fit(lib[4:], dims=4, shortlist=shortlist, summary=0)  # the codes alone
     for q in lib[:4]:
         codes = s.quantizer.encode(q)
         res = s.searcher.search([codes], k=max(shortlist, 2), parallel=False)  # k=2 widens a shortlist of 1
