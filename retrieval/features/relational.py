@@ -122,6 +122,9 @@ class FeatureSet:
     #: source's bone directions at canonical bone lengths), so a skeleton's proportions,
     #: rest pose and joint placement drop out before any distance is taken.
     body: str = "source"
+    #: Percentile of the per-frame lowest foot joint that "height" features stand on
+    #: (:func:`clip_floor`).
+    floor_percentile: float = FLOOR_PERCENTILE
 
     @property
     def dim(self) -> int:
@@ -205,7 +208,8 @@ class FeatureSet:
                 out[:, k] = np.linalg.norm(p(a) - p(b), axis=1)
             elif spec.kind == "height":
                 if floor is None:
-                    floor = clip_floor(np.stack([p(f)[:, 1] for f in self.floor_joints], axis=1))
+                    floor = clip_floor(np.stack([p(f)[:, 1] for f in self.floor_joints], axis=1),
+                                       self.floor_percentile)
                 out[:, k] = p(spec.joints[0])[:, 1] - floor
             elif spec.kind == "above":
                 a, b = spec.joints
@@ -290,12 +294,12 @@ def chain_length(a: str, b: str, rest: np.ndarray, joint_map: dict[str, int]) ->
     return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
 
 
-def clip_floor(foot_heights: np.ndarray) -> float:
-    """The floor of a clip from (T, k) foot-joint heights: a low percentile of each
+def clip_floor(foot_heights: np.ndarray, percentile: float = FLOOR_PERCENTILE) -> float:
+    """The floor of a clip from (T, k) foot-joint heights: a low ``percentile`` of each
     frame's lowest foot joint (see :data:`FLOOR_PERCENTILE`)."""
     if foot_heights.size == 0:
         return 0.0
-    return float(np.percentile(foot_heights.min(axis=1), FLOOR_PERCENTILE))
+    return float(np.percentile(foot_heights.min(axis=1), percentile))
 
 
 def leg_length(skeleton: Skeleton, joint_map: dict[str, int] | None = None) -> float:

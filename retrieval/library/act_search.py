@@ -161,7 +161,8 @@ class ActSearch:
         (folder / ACT_JSON).write_text(json.dumps({"names": self.names, "starts": self.starts,
                                                    "subjects": self.subjects, "paths": self.paths,
                                                    "shortlist": self.shortlist,
-                                                   "relative": list(self.feature_set.relative)}, indent=1))
+                                                   "relative": list(self.feature_set.relative),
+                                                   "features": feature_key(self.feature_set)}, indent=1))
         return folder
 
     @classmethod
@@ -173,7 +174,7 @@ class ActSearch:
             meta = json.loads(path.read_text())
             names, starts = list(meta["names"]), [int(s) for s in meta["starts"]]
             subjects, paths, shortlist = list(meta["subjects"]), list(meta["paths"]), int(meta["shortlist"])
-            relative = tuple(meta.get("relative", ()))
+            relative, features = tuple(meta.get("relative", ())), meta.get("features")
         except FileNotFoundError:
             raise IndexFormatError(f"{path}: not found (not an act search folder)") from None
         except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
@@ -185,6 +186,10 @@ class ActSearch:
         if relative != search.feature_set.relative:
             raise IndexFormatError(f"{path}: built with relative features {list(relative)}, the feature set "
                                    f"{search.feature_set.name!r} now has {list(search.feature_set.relative)}: rebuild it")
+        if features != feature_key(search.feature_set):
+            raise IndexFormatError(f"{path}: built with the feature set {search.feature_set.name!r} as "
+                                   f"{features or 'an older version'}, it is now {feature_key(search.feature_set)}: "
+                                   f"rebuild it")
         return search
 
     # ------------------------------------------------------------------ searching
@@ -285,6 +290,14 @@ class ActSearch:
         return self.search_features(self.position_features(pos, fps, jm, body_size), k, exclude)
 
 
+def feature_key(feature_set: FrontalFeatureSet) -> str:
+    """What a saved act index's features depend on beyond their names: each feature's
+    weight and the floor the heights stand on (an index built before a change to either
+    no longer matches the queries, and :meth:`ActSearch.load` refuses it)."""
+    weights = ",".join(f"{s.weight:g}" for s in feature_set.specs)
+    return f"weights {weights}; floor p{feature_set.floor_percentile:g}"
+
+
 def positions_leg_length(pos: np.ndarray, joint_map: Mapping[str, int]) -> float:
     """Median over frames of both legs' mean hip→knee→ankle length (metres)."""
     pos = np.asarray(pos, dtype=np.float64)
@@ -300,5 +313,5 @@ def positions_leg_length(pos: np.ndarray, joint_map: Mapping[str, int]) -> float
     return size
 
 
-__all__ = ["ACT_SHORTLIST", "WINDOW_SECONDS", "RANK_FACTOR", "ActSearch", "FEATURE_SET", "positions_leg_length",
-           "resample_positions", "windows"]
+__all__ = ["ACT_SHORTLIST", "WINDOW_SECONDS", "RANK_FACTOR", "ActSearch", "FEATURE_SET", "feature_key",
+           "positions_leg_length", "resample_positions", "windows"]

@@ -14,6 +14,7 @@ from retrieval.dtw import dtw_features
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.features import leg_length
 from retrieval.library import ActSearch, Match, clip_from_motion
+from retrieval.library.act_search import feature_key
 from retrieval.motion import canonical_joint_map, positions
 from retrieval.motion.landmarks import LandmarkError
 from tests.retrieval.test_frontal_landmarks import fake_landmarks
@@ -173,7 +174,9 @@ def test_relative_features_per_window_and_per_query(tmp_path):
     sk = make_skeleton()
     clips = []
     for k, (label, kw) in enumerate(KINDS.items()):
-        m = make_motion(sk, frames=300, period=0.9, knee_bend=20.0 + 40.0 * k, **{a: b for a, b in kw.items()
+        # whole periods (0.7 s = 21 frames) in the clip and in a take-long window, so the
+        # heights' floor (a percentile of the lowest foot) is the same over both
+        m = make_motion(sk, frames=294, period=0.7, knee_bend=20.0 + 40.0 * k, **{a: b for a, b in kw.items()
                                                                                    if a != "knee_bend"})
         m.name = label
         clips.append((m, clip_from_motion(m, label, label, 30.0, "frontal")))
@@ -192,10 +195,11 @@ def test_relative_features_per_window_and_per_query(tmp_path):
     folder = search.save(tmp_path / "act")
     meta = json.loads((folder / "act.json").read_text())
     assert meta["relative"] == list(fs.relative)
-    meta["relative"] = []
-    (folder / "act.json").write_text(json.dumps(meta))
-    with pytest.raises(IndexFormatError, match="rebuild"):
-        ActSearch.load(folder)
+    assert meta["features"] == feature_key(fs) and "floor p30" in meta["features"]
+    for key, value in (("relative", []), ("features", "weights 1; floor p2")):  # built under another rule
+        (folder / "act.json").write_text(json.dumps({**meta, key: value}))
+        with pytest.raises(IndexFormatError, match="rebuild"):
+            ActSearch.load(folder)
 
 
 def test_the_tablet_path_answers_as_the_compiled_one_in_one_sweep(monkeypatch):
