@@ -14,7 +14,7 @@ from retrieval.dtw import dtw_features
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.features import leg_length
 from retrieval.library import ActSearch, Match, clip_from_motion
-from retrieval.library.act_search import feature_key
+from retrieval.library.act_search import SHORT_TAKE_SECONDS, SHORT_WINDOW_SECONDS, feature_key
 from retrieval.motion import canonical_joint_map, positions
 from retrieval.motion.landmarks import LandmarkError
 from tests.retrieval.test_frontal_landmarks import fake_landmarks
@@ -165,6 +165,38 @@ def test_long_clips_are_searched_by_take_long_windows():
     hits = search.search_positions(positions(m)[120:225], 30.0, k=4, joint_map=jm, body_size=leg_length(sk, jm),
                                    exclude=[m.name])
     assert m.name not in {h.trial for h in hits} and len(hits) == 3
+
+
+def test_short_takes_are_searched_by_short_windows(tmp_path):
+    """A take under SHORT_TAKE_SECONDS is answered from the second index, whose windows
+    are 2 s long (a 2 s kick against 3.5 s windows must warp 3.5 s onto 2); a longer take
+    from the 3.5 s windows; the short index is saved and loaded with the search."""
+    sk = make_skeleton()
+    clips, motions = [], []
+    for label, kw in KINDS.items():
+        m = make_motion(sk, frames=300, period=0.9, **kw)
+        m.name = label
+        motions.append(m)
+        clips.append(clip_from_motion(m, m.name, label, 30.0, "frontal"))
+    search = ActSearch.from_clips(clips, dims=4)
+    assert search.short is not None and search.short.short is None
+    assert search.short.clip_names == search.clip_names and len(search.short.index) > len(search.index)
+    jm = canonical_joint_map(sk)
+    kw = dict(k=2, joint_map=jm, body_size=leg_length(sk, jm))
+    take = positions(motions[1])[150:150 + int(SHORT_WINDOW_SECONDS * 30)]
+    assert len(take) < SHORT_TAKE_SECONDS * 30
+    hits = search.search_positions(take, 30.0, **kw)
+    assert hits[0].trial == motions[1].name and hits[0].end_s - hits[0].start_s == pytest.approx(SHORT_WINDOW_SECONDS)
+    long_take = positions(motions[1])[150:255]
+    assert search.search_positions(long_take, 30.0, **kw)[0].end_s - \
+        search.search_positions(long_take, 30.0, **kw)[0].start_s == pytest.approx(3.5)
+    again = ActSearch.load(search.save(tmp_path / "act"))
+    assert again.short is not None and len(again.short.index) == len(search.short.index)
+    assert [h.as_dict() for h in again.search_positions(take, 30.0, **kw)] == [h.as_dict() for h in hits]
+    single = ActSearch.from_clips(clips, dims=4, short_seconds=None)
+    assert single.short is None
+    hit = single.search_positions(take, 30.0, **kw)[0]
+    assert hit.end_s - hit.start_s == pytest.approx(3.5)  # without it, a 2 s take meets 3.5 s windows
 
 
 def test_relative_features_per_window_and_per_query(tmp_path):
