@@ -133,6 +133,9 @@ class FeatureSet:
     #: a jump's apex, within half a flight time (well under a second) of the take-off,
     #: still measures from the ground it left.
     floor_window: float = 0.0
+    #: Percentile of the per-frame lowest foot joint that "height" features stand on
+    #: (:func:`clip_floor`).
+    floor_percentile: float = FLOOR_PERCENTILE
 
     @property
     def dim(self) -> int:
@@ -221,7 +224,8 @@ class FeatureSet:
                         raise FeatureError(f"feature set {self.name!r} takes its floor over "
                                            f"{self.floor_window:g} s: it needs the frame rate")
                     window = int(round(self.floor_window * fps)) if self.floor_window > 0 else 0
-                    floor = clip_floor(np.stack([p(f)[:, 1] for f in self.floor_joints], axis=1), window)
+                    floor = clip_floor(np.stack([p(f)[:, 1] for f in self.floor_joints], axis=1),
+                                       window, self.floor_percentile)
                 out[:, k] = p(spec.joints[0])[:, 1] - floor
             elif spec.kind == "above":
                 a, b = spec.joints
@@ -352,8 +356,9 @@ def chain_length(a: str, b: str, rest: np.ndarray, joint_map: dict[str, int]) ->
     return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
 
 
-def clip_floor(foot_heights: np.ndarray, window: int = 0) -> float | np.ndarray:
-    """The floor of a clip from (T, k) foot-joint heights: a low percentile of each
+def clip_floor(foot_heights: np.ndarray, window: int = 0,
+               percentile: float = FLOOR_PERCENTILE) -> float | np.ndarray:
+    """The floor of a clip from (T, k) foot-joint heights: a low ``percentile`` of each
     frame's lowest foot joint (see :data:`FLOOR_PERCENTILE`) over the whole clip, or,
     with ``window`` > 0, over the frames within ``window`` of each frame (a (T,) floor
     per frame, the clip's ends repeated; see :attr:`FeatureSet.floor_window`)."""
@@ -361,8 +366,8 @@ def clip_floor(foot_heights: np.ndarray, window: int = 0) -> float | np.ndarray:
         return 0.0
     lowest = foot_heights.min(axis=1)
     if window > 0 and len(lowest) > 1:
-        return percentile_filter(lowest, FLOOR_PERCENTILE, size=2 * window + 1, mode="nearest")
-    return float(np.percentile(lowest, FLOOR_PERCENTILE))
+        return percentile_filter(lowest, percentile, size=2 * window + 1, mode="nearest")
+    return float(np.percentile(lowest, percentile))
 
 
 def leg_length(skeleton: Skeleton, joint_map: dict[str, int] | None = None) -> float:

@@ -14,6 +14,7 @@ from retrieval.dtw import dtw_features
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.features import leg_length
 from retrieval.library import ActSearch, Match, clip_from_motion
+from retrieval.library.act_search import SHORT_TAKE_SECONDS, SHORT_WINDOW_SECONDS, feature_key
 from retrieval.motion import canonical_joint_map, positions
 from retrieval.motion.landmarks import LandmarkError
 from tests.retrieval.test_frontal_landmarks import fake_landmarks
@@ -166,6 +167,38 @@ def test_long_clips_are_searched_by_take_long_windows():
     assert m.name not in {h.trial for h in hits} and len(hits) == 3
 
 
+def test_short_takes_are_searched_by_short_windows(tmp_path):
+    """A take under SHORT_TAKE_SECONDS is answered from the second index, whose windows
+    are 2 s long (a 2 s kick against 3.5 s windows must warp 3.5 s onto 2); a longer take
+    from the 3.5 s windows; the short index is saved and loaded with the search."""
+    sk = make_skeleton()
+    clips, motions = [], []
+    for label, kw in KINDS.items():
+        m = make_motion(sk, frames=300, period=0.9, **kw)
+        m.name = label
+        motions.append(m)
+        clips.append(clip_from_motion(m, m.name, label, 30.0, "frontal"))
+    search = ActSearch.from_clips(clips, dims=4)
+    assert search.short is not None and search.short.short is None
+    assert search.short.clip_names == search.clip_names and len(search.short.index) > len(search.index)
+    jm = canonical_joint_map(sk)
+    kw = dict(k=2, joint_map=jm, body_size=leg_length(sk, jm))
+    take = positions(motions[1])[150:150 + int(SHORT_WINDOW_SECONDS * 30)]
+    assert len(take) < SHORT_TAKE_SECONDS * 30
+    hits = search.search_positions(take, 30.0, **kw)
+    assert hits[0].trial == motions[1].name and hits[0].end_s - hits[0].start_s == pytest.approx(SHORT_WINDOW_SECONDS)
+    long_take = positions(motions[1])[150:255]
+    assert search.search_positions(long_take, 30.0, **kw)[0].end_s - \
+        search.search_positions(long_take, 30.0, **kw)[0].start_s == pytest.approx(3.5)
+    again = ActSearch.load(search.save(tmp_path / "act"))
+    assert again.short is not None and len(again.short.index) == len(search.short.index)
+    assert [h.as_dict() for h in again.search_positions(take, 30.0, **kw)] == [h.as_dict() for h in hits]
+    single = ActSearch.from_clips(clips, dims=4, short_seconds=None)
+    assert single.short is None
+    hit = single.search_positions(take, 30.0, **kw)[0]
+    assert hit.end_s - hit.start_s == pytest.approx(3.5)  # without it, a 2 s take meets 3.5 s windows
+
+
 def test_relative_features_per_window_and_per_query(tmp_path):
     """The frontal set's ankle–hip distances are relative to their median over each
     library window, and over the query: a take cut from the middle of a long clip finds
@@ -173,7 +206,9 @@ def test_relative_features_per_window_and_per_query(tmp_path):
     sk = make_skeleton()
     clips = []
     for k, (label, kw) in enumerate(KINDS.items()):
-        m = make_motion(sk, frames=300, period=0.9, knee_bend=20.0 + 40.0 * k, **{a: b for a, b in kw.items()
+        # whole periods (0.7 s = 21 frames) in the clip and in a take-long window, so the
+        # heights' floor (a percentile of the lowest foot) is the same over both
+        m = make_motion(sk, frames=294, period=0.7, knee_bend=20.0 + 40.0 * k, **{a: b for a, b in kw.items()
                                                                                    if a != "knee_bend"})
         m.name = label
         clips.append((m, clip_from_motion(m, label, label, 30.0, "frontal")))
@@ -192,10 +227,11 @@ def test_relative_features_per_window_and_per_query(tmp_path):
     folder = search.save(tmp_path / "act")
     meta = json.loads((folder / "act.json").read_text())
     assert meta["relative"] == list(fs.relative)
-    meta["relative"] = []
-    (folder / "act.json").write_text(json.dumps(meta))
-    with pytest.raises(IndexFormatError, match="rebuild"):
-        ActSearch.load(folder)
+    assert meta["features"] == feature_key(fs) and "floor p30" in meta["features"]
+    for key, value in (("relative", []), ("features", "weights 1; floor p2")):  # built under another rule
+        (folder / "act.json").write_text(json.dumps({**meta, key: value}))
+        with pytest.raises(IndexFormatError, match="rebuild"):
+            ActSearch.load(folder)
 
 
 def test_the_tablet_path_answers_as_the_compiled_one_in_one_sweep(monkeypatch):

@@ -7,10 +7,13 @@ turned into metres at each frame's own scale (:func:`scale_track`) and heights a
 from the take's floor line (:func:`floor_line`)."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from retrieval.features import FRONTAL, measured_rest
+from retrieval.features.frontal import FRONTAL_FLOOR_PERCENTILE, HEIGHT_WEIGHT
 from retrieval.motion import canonical_joint_map, positions
 from retrieval.motion.landmarks import DIRECT, floor_line, landmarks_to_positions, scale_track
 from tests.support.synthetic_motion import make_motion, make_skeleton
@@ -61,7 +64,7 @@ def test_a_walk_towards_a_low_pitched_camera_reads_as_the_walk_in_place(walk):
     towards[..., 2] += np.linspace(-4.0, 0.0, len(pos))[:, None]  # 7 m → 3 m from the lens in 3.5 s
     for pitch in (0.0, 6.0, -8.0):
         got = features(*film(towards, jm, 0.7 if pitch >= 0 else 1.4, 3.0, pitch, 70.0), (1280, 720))
-        err = np.abs(got - ref).mean(axis=0)
+        err = np.abs(got - ref).mean(axis=0) / [s.weight for s in FRONTAL.specs]  # in leg lengths, unweighted
         # every feature within 0.08 leg lengths of the level, in-place take (constant-scale
         # pixels gave 0.19 on the hand span); what is left is the pitch: arm swing in depth seen from above
         assert err.max() < 0.08, (pitch, sorted(zip(np.round(err, 3), FRONTAL.names))[-3:])
@@ -113,3 +116,47 @@ def test_floor_line_is_level_under_a_jump_and_follows_a_drift():
     np.testing.assert_allclose(floor_line(feet), 0.0, atol=1e-9)
     drift = 0.002 * t + feet
     np.testing.assert_allclose(floor_line(drift), 0.002 * t, atol=1e-6)
+
+
+def test_a_foot_swept_towards_a_near_lens_does_not_lift_the_body(walk):
+    """A kick towards the tablet: the kicking foot, swept along the floor 0.6 m nearer a
+    lens 2.2 m away, is magnified and reads lower in the image than the standing foot.
+    The frontal heights stand on the 30th percentile of the lowest foot (the standing
+    foot's level), so the hips stay as high as the far camera sees them; on the 2nd
+    percentile (the sweep's lowest frames) the whole body read ~0.6 leg lengths high."""
+    pos, jm = walk
+    pos = pos.copy()
+    sweep, k = slice(40, 65), np.sin(np.linspace(0.0, np.pi, 25))
+    for joint, dz in (("left_knee", 0.3), ("left_ankle", 0.6), ("left_toe", 0.65)):
+        pos[sweep, jm[joint], 2] += dz * k
+        pos[sweep, jm[joint], 1] += 0.05 * k
+    hips = FRONTAL.names.index("hips_height")
+
+    def hips_height(fs, cam_height: float, cam_z: float, hfov: float, size: tuple[int, int]) -> float:
+        world, image = film(pos, jm, cam_height, cam_z, 0.0, hfov, size)
+        p, jmm, leg = landmarks_to_positions(world, image, np.ones(len(world), bool), size, 30.0)
+        return float(np.median(fs.from_positions(p, jmm, leg, 30.0, measured_rest(p, jmm))[:, hips]))
+
+    far = hips_height(FRONTAL, 0.9, 3.6, 58.0, (640, 480))
+    near = hips_height(FRONTAL, 1.0, 2.2, 75.0, (720, 1280))
+    assert FRONTAL.floor_percentile == FRONTAL_FLOOR_PERCENTILE == 30.0
+    assert abs(near - far) < 0.1 * HEIGHT_WEIGHT, (near, far)
+    low_floor = replace(FRONTAL, floor_percentile=2.0)
+    assert hips_height(low_floor, 1.0, 2.2, 75.0, (720, 1280)) - far > 0.4 * HEIGHT_WEIGHT
+
+
+def test_frontal_heights_count_twice_over_the_30th_percentile_floor(walk):
+    """Step 6 of the frontal set: the three heights are weighted ×2 and stand on the
+    30th percentile of each frame's lowest foot joint; every other column is MR17's."""
+    pos, jm = walk
+    rest = measured_rest(pos, jm)
+    plain = replace(FRONTAL, specs=tuple(replace(s, weight=1.0) for s in FRONTAL.specs))
+    f, g = FRONTAL.from_positions(pos, jm, 0.9, 30.0, rest), plain.from_positions(pos, jm, 0.9, 30.0, rest)
+    heights = [i for i, s in enumerate(FRONTAL.specs) if s.kind == "height"]
+    assert [FRONTAL.names[i] for i in heights] == ["lankle_height", "rankle_height", "hips_height"]
+    others = [i for i in range(FRONTAL.dim) if i not in heights]
+    np.testing.assert_allclose(f[:, others], g[:, others])
+    np.testing.assert_allclose(f[:, heights], HEIGHT_WEIGHT * g[:, heights])
+    feet = np.stack([pos[:, jm[j], 1] for j in ("left_ankle", "left_toe", "right_ankle", "right_toe")], 1).min(1)
+    np.testing.assert_allclose(g[:, FRONTAL.names.index("hips_height")],
+                               (pos[:, jm["hips"], 1] - np.percentile(feet, 30.0)) / 0.9)

@@ -1,0 +1,129 @@
+"""Search-only variants of Act it out's frontal feature set over all three measures.
+
+    python scripts/act_feature_variants.py VARIANT [VARIANT ...] [--json DIR]
+        [--videos /work/data/act_real] [--video-cache /work/data/act_real_cache]
+        [--guard-cache /work/data/guard/cache] [--data ../shared/data/cmu]
+
+A ``VARIANT`` is ``base`` (the frontal set with MR17's weights, floor at the 2nd
+percentile) or ``+``-joined parts: ``hN`` every height weighted N, ``hipsN`` /
+``anklesN`` the hips' / the ankles' heights weighted N, ``flP`` the heights' floor at the
+P-th percentile of the lowest foot (``fl30+h2`` is the registered ``"frontal"`` set since
+2026-11-28). Per variant the library (``--data``) is indexed with that set (the clips'
+joint positions are read once and kept in memory) and measured, search only, on
+
+* the real development set (``--videos``, landmarks cached by ``storybeam bench
+  act-it-out --videos``; a clip not in the cache is tracked, slowly),
+* the rendered guard (seed 2, 60 takes each of ``person`` and ``kid``, landmarks cached
+  by ``storybeam bench act-it-out --seed 2 --limit 60 --variants person,kid --cache``;
+  trial left out),
+* ``storybeam bench act-cameras`` (every condition, seed 2, 60 trials),
+
+printing one block per variant and, with ``--json``, writing ``DIR/VARIANT.json``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from collections import defaultdict
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from lab.bench import act_it_out as rendered
+from lab.bench.act_cameras import run_act_cameras_bench
+from lab.bench.act_videos import run_act_videos_bench
+from retrieval.features import FrontalFeatureSet, get_feature_set, leg_length, register_feature_set
+from retrieval.features.frontal import FRONTAL
+from retrieval.features.relational import FLOOR_PERCENTILE, MR17
+from retrieval.library import ActSearch, read_labels
+from retrieval.library.clip import Clip
+from retrieval.motion import canonical_joint_map, load_motion, positions, resample, rest_positions
+
+FPS = 30.0
+
+
+def variant_set(variant: str) -> FrontalFeatureSet:
+    """The frontal feature set a ``VARIANT`` names (module docstring), registered."""
+    specs, floor = list(MR17.specs), FLOOR_PERCENTILE
+    for part in ([] if variant == "base" else variant.split("+")):
+        key = part.rstrip("0123456789.")
+        try:
+            value = float(part[len(key):])
+        except ValueError:
+            raise SystemExit(f"{variant}: {part!r} needs a number (h2, hips1.5, fl30)") from None
+        names = {"h": ("lankle_height", "rankle_height", "hips_height"), "hips": ("hips_height",),
+                 "ankles": ("lankle_height", "rankle_height")}
+        if key == "fl":
+            floor = value
+        elif key in names:
+            specs = [replace(s, weight=value) if s.name in names[key] else s for s in specs]
+        else:
+            raise SystemExit(f"{variant}: unknown part {part!r} (h, hips, ankles, fl)")
+    return register_feature_set(replace(FRONTAL, name=f"frontal_variant_{variant}", specs=tuple(specs),
+                                        floor_percentile=floor, description=f"variant {variant}"))
+
+
+def library_positions(data: Path) -> list[tuple]:
+    """Every library trial's (row, joint positions at FPS, joint map, leg length, rest pose)."""
+    out = []
+    for r in read_labels(data):
+        m = load_motion(r.file, r.skeleton) if r.skeleton else load_motion(r.file)
+        m = resample(m, FPS) if abs(m.fps - FPS) > 1e-9 else m
+        jm = canonical_joint_map(m.skeleton)
+        out.append((r, positions(m), jm, leg_length(m.skeleton, jm), rest_positions(m.skeleton)))
+    return out
+
+
+def measure(variant: str, library: list[tuple], args: argparse.Namespace) -> dict:
+    """The three measures of one variant (module docstring)."""
+    fs = variant_set(variant)
+    clips = [Clip(r.trial, r.label, fs.from_positions(p, jm, leg, FPS, rest), None, FPS, str(r.file), r.subject)
+             for r, p, jm, leg, rest in library]
+    search = ActSearch.from_clips(clips, feature_set=fs.name)
+    real = run_act_videos_bench(args.videos, args.data, args.video_cache, 3, search=search)
+    per = defaultdict(lambda: [0, 0])
+    for c in real["clips"]:
+        per[c["label"]][0] += c["predicted"] == c["label"]
+        per[c["label"]][1] += 1
+    rows = read_labels(args.data)
+    chosen = rendered.choose_trials(rows, 60, 2)
+    subjects: dict[str, set[str]] = defaultdict(set)
+    for r in rows:
+        if r.subject:
+            subjects[r.subject].add(r.trial)
+    guard = {v: rendered.evaluate_variant(search, chosen, v, 2, args.guard_cache, subjects) for v in ("person", "kid")}
+    cams = run_act_cameras_bench(args.data, 60, 2, search=search)["conditions"]
+    return {"variant": variant, "feature_set": repr(get_feature_set(fs.name)),
+            "real": {"right": sum(a for a, _ in per.values()), "clips": len(real["clips"]),
+                     "per_class": {k: f"{a}/{b}" for k, (a, b) in per.items()},
+                     "predicted": {c["file"]: c["predicted"] for c in real["clips"]}},
+            "guard": {v: {"accuracy": g["accuracy_trial_out"], "ceiling": g["ceiling_trial_out"],
+                          "recall": g["recall"]} for v, g in guard.items()},
+            "cameras": {c["condition"]["name"]: {"accuracy": c["accuracy"], "recall": c["recall"]} for c in cams}}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("variants", nargs="+")
+    ap.add_argument("--json", type=Path, help="write DIR/VARIANT.json")
+    ap.add_argument("--videos", type=Path, default=Path("/work/data/act_real"))
+    ap.add_argument("--video-cache", type=Path, default=Path("/work/data/act_real_cache"))
+    ap.add_argument("--guard-cache", type=Path, default=Path("/work/data/guard/cache"))
+    ap.add_argument("--data", type=Path, default=Path("../shared/data/cmu"))
+    args = ap.parse_args()
+    library = library_positions(args.data)
+    for v in args.variants:
+        r = measure(v, library, args)
+        cams = r["cameras"]
+        print(f"{v}: real {r['real']['right']}/{r['real']['clips']} {r['real']['per_class']}; "
+              + "; ".join(f"{k} {g['accuracy']:.3f}" for k, g in r["guard"].items())
+              + f"; cameras mean {np.mean([c['accuracy'] for c in cams.values()]):.3f}\n  "
+              + ", ".join(f"{k} {c['accuracy']:.3f} (kick {c['recall'].get('kick', 0):.2f})" for k, c in cams.items()))
+        if args.json:
+            args.json.mkdir(parents=True, exist_ok=True)
+            (args.json / f"{v}.json").write_text(json.dumps(r, indent=1))
+
+
+if __name__ == "__main__":
+    main()
