@@ -330,6 +330,13 @@ def run(args) -> int:
         if args.subset:
             raise StoryBeamError("--identity and --pose-identity use the whole folder: drop --subset")
         return run_identity(args, rows, clips, feature_set)
+    seed_clips = None
+    if feature_set != "mr17" and get_feature_set(feature_set).body != "source" and set(methods) & set(SEED_METHODS):
+        # the seed's methods keep the seed's features (MR17 on the file's own body), as the research
+        by_trial = {c.trial: c for c in load_dataset(
+            args.data, fps=args.fps, feature_set="mr17", cache=not args.no_cache, rows=rows, pose="forbes" in methods,
+            progress=progress_bar("loading the seed's MR17", "clip", not args.quiet))}
+        seed_clips = [by_trial[c.trial] for c in clips]
     per_split = {}
     for split in splits:
         kw = {"shortlist": args.shortlist} if args.shortlist else {}
@@ -337,7 +344,7 @@ def run(args) -> int:
             kw["summary"] = args.summary
         res = evaluate(clips, methods, args.folds, args.dims, args.seed, args.band, args.forbes_clusters,
                        progress=progress_bar(f"evaluating ({split} split)", "fold", not args.quiet),
-                       backend=args.backend, split=split, **kw)
+                       backend=args.backend, split=split, seed_clips=seed_clips, **kw)
         per_split[split] = {n: r.as_dict() for n, r in res.items()}
     out = {
         "n_clips": len(clips),
@@ -377,7 +384,7 @@ def run(args) -> int:
                                                      f"{Path(args.data).name}, {split} split, ")
         print("plots: " + ", ".join(out["confusion_plots"]))
     if sweep:
-        out["sweep"] = sweep_dims(clips, sweep, args.folds, args.seed, args.band,
+        out["sweep"] = sweep_dims(seed_clips or clips, sweep, args.folds, args.seed, args.band,
                                   progress=progress_bar("sweeping n", "n", not args.quiet),
                                   backend=args.backend)
         print("\n  n  accuracy  balanced  search(s)  cum.contrib  table")
