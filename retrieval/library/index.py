@@ -321,8 +321,10 @@ class MotionIndex:
             raise IndexFormatError(f"{jpath}: damaged index ({type(exc).__name__}: {exc})") from None
         if body and saved_body != body:
             # a query's features would be computed on another body than the library's
-            raise IndexFormatError(f"{jpath}: its {fset!r} features were taken on the {saved_body} body, this "
-                                   f"StoryBeam takes them on the {body} body: build the index again "
+            def name(tag: str) -> str:
+                return "the file's own body" if tag == "source" else f"the {tag} body"
+            raise IndexFormatError(f"{jpath}: its {fset!r} features were taken on {name(saved_body)}, this "
+                                   f"StoryBeam takes them on {name(body)}: build the index again "
                                    "(storybeam search --data FOLDER --save-index DIR)")
         try:
             with np.load(npath) as z:

@@ -190,7 +190,7 @@ def test_an_index_saved_on_another_body_is_refused(synthetic, tmp_path):
     assert MotionIndex.load(folder).feature_set == "storybeam"
     del meta["body"]  # as saved before issue 31
     js.write_text(json.dumps(meta))
-    with pytest.raises(IndexFormatError, match="index.json: .* source body, .* canonical-.* body: build the index again"):
+    with pytest.raises(IndexFormatError, match="index.json: .* the file's own body, .* the canonical-.* body: build the index again"):
         MotionIndex.load(folder)
     # the seed's features never moved: an old mr17 index still loads
     old = MotionIndex.from_clips(clips, dims=4).save(tmp_path / "old")
