@@ -150,7 +150,7 @@ IDENTITY_PROPORTIONS = {"thigh": 0.23, "shin": 0.26, "upper_arm": 0.15, "forearm
 
 
 def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, shortlist: int | None, dims: int,
-                   progress=None) -> dict:
+                   progress=None, seed_clips=None) -> dict:
     """"Find this clip": every clip, retargeted (StoryBeam's retarget) onto a different
     canonical skeleton, resampled to ``write_fps``, written as BVH with StoryBeam's writer
     and read back, is the query against the whole library (the clips as loaded). Counts
@@ -158,7 +158,9 @@ def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, 
     (:meth:`StoryBeamSearcher.find`: centred features, their own code shortlist, exact
     float DTW), for storybeam's class ranking (code shortlist + float-DTW re-ranking,
     :meth:`StoryBeamSearcher.search`) and for the seed's codes alone (the fast exact search, ties by
-    library order), with how many library clips tie with the seed's best distance."""
+    library order), with how many library clips tie with the seed's best distance. The seed
+    sees ``seed_clips`` (the library in MR17 on the file's own body) when given, else the
+    MR17 columns of ``clips``."""
     import tempfile  # deferred: only for --identity
 
     import numpy as np  # deferred: numpy stack only for this command
@@ -172,8 +174,9 @@ def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, 
     target = canonical_skeleton(BodyProportions(**IDENTITY_PROPORTIONS), IDENTITY_HEIGHT_M, "identity-child")
     sb = StoryBeamSearcher.fit([c.features for c in clips], dims, shortlist or SHORTLIST)
     # the seed's method: its quantiser on the MR17 columns, the exact fast search over its codes
-    seed_q = Quantizer.fit(np.concatenate([c.features[:, :17] for c in clips]), dims)
-    seed_fast = FastSearcher([seed_q.encode(c.features[:, :17]) for c in clips], DiffTable.from_ratios(seed_q.ratios))
+    seed_lib = [c.features[:, :17] for c in (clips if seed_clips is None else seed_clips)]
+    seed_q = Quantizer.fit(np.concatenate(seed_lib), dims)
+    seed_fast = FastSearcher([seed_q.encode(f) for f in seed_lib], DiffTable.from_ratios(seed_q.ratios))
     found_sb = found_find = found_seed = 0
     ties = []
     misses = []
@@ -190,7 +193,9 @@ def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, 
             found_find += found[0].index == n
             if found[0].index != n:
                 find_misses.append({"trial": row.trial, "found": clips[found[0].index].trial})
-            res = seed_fast.search([seed_q.encode(back.features[:, :17])], k=min(len(clips), 8),
+            seed_back = back.features if seed_clips is None else clip_from_motion(
+                load_motion(path), row.trial, row.label, fps, "mr17").features
+            res = seed_fast.search([seed_q.encode(seed_back[:, :17])], k=min(len(clips), 8),
                                    parallel=False)
             found_seed += int(res.indices[0, 0]) == n
             ties.append(int(np.sum(res.distances[0] <= res.distances[0, 0])))
@@ -216,6 +221,7 @@ def run_identity(args, rows, clips, feature_set: str) -> int:
     run, print a line each (and the misses), write the JSON."""
     # deferred: numpy/numba stack only for this command
     from retrieval.library import SHORTLIST, load_dataset, pose_feature_set
+    from retrieval.features import get_feature_set  # deferred: as above
     # deferred: the experiment layer, only for this command
     from lab.experiment import other_skeleton_trials, pose_identity, skeleton_identity
 
@@ -223,8 +229,10 @@ def run_identity(args, rows, clips, feature_set: str) -> int:
            "skeleton_from": args.skeleton_from}
     others = other_skeleton_trials(args.skeleton_from) if args.skeleton_from else None
     if args.identity and others is None:
+        seed_clips = None if get_feature_set(feature_set).body == "source" else load_dataset(
+            args.data, fps=args.fps, feature_set="mr17", rows=rows, cache=not args.no_cache)
         ident = identity_check(rows, clips, args.fps, feature_set, args.identity_fps, args.shortlist, args.dims,
-                               progress_bar("identity round trips", "clip", not args.quiet))
+                               progress_bar("identity round trips", "clip", not args.quiet), seed_clips)
         print(f"{ident['clips']} clips written as BVH on another skeleton at {args.identity_fps:g} fps and read back: "
               f"found first: storybeam find {100 * ident['storybeam_find_top1']:.2f} %, "
               f"storybeam class ranking {100 * ident['storybeam_top1']:.2f} %, "
@@ -330,6 +338,13 @@ def run(args) -> int:
         if args.subset:
             raise StoryBeamError("--identity and --pose-identity use the whole folder: drop --subset")
         return run_identity(args, rows, clips, feature_set)
+    seed_clips = None
+    if feature_set != "mr17" and get_feature_set(feature_set).body != "source" and set(methods) & set(SEED_METHODS):
+        # the seed's methods keep the seed's features (MR17 on the file's own body), as the research
+        by_trial = {c.trial: c for c in load_dataset(
+            args.data, fps=args.fps, feature_set="mr17", cache=not args.no_cache, rows=rows, pose="forbes" in methods,
+            progress=progress_bar("loading the seed's MR17", "clip", not args.quiet))}
+        seed_clips = [by_trial[c.trial] for c in clips]
     per_split = {}
     for split in splits:
         kw = {"shortlist": args.shortlist} if args.shortlist else {}
@@ -337,7 +352,7 @@ def run(args) -> int:
             kw["summary"] = args.summary
         res = evaluate(clips, methods, args.folds, args.dims, args.seed, args.band, args.forbes_clusters,
                        progress=progress_bar(f"evaluating ({split} split)", "fold", not args.quiet),
-                       backend=args.backend, split=split, **kw)
+                       backend=args.backend, split=split, seed_clips=seed_clips, **kw)
         per_split[split] = {n: r.as_dict() for n, r in res.items()}
     out = {
         "n_clips": len(clips),
@@ -377,7 +392,7 @@ def run(args) -> int:
                                                      f"{Path(args.data).name}, {split} split, ")
         print("plots: " + ", ".join(out["confusion_plots"]))
     if sweep:
-        out["sweep"] = sweep_dims(clips, sweep, args.folds, args.seed, args.band,
+        out["sweep"] = sweep_dims(seed_clips or clips, sweep, args.folds, args.seed, args.band,
                                   progress=progress_bar("sweeping n", "n", not args.quiet),
                                   backend=args.backend)
         print("\n  n  accuracy  balanced  search(s)  cum.contrib  table")

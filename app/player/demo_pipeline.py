@@ -43,7 +43,7 @@ from ar.scene import (Lighting, SceneDescription, View, add_character, add_mesh,
                       overhead_view, ribbon, scaled_model, table_mesh)
 from retrieval.animation import (TablePath, find_loop, follow_path, foot_skate_cm_per_m, path_error_cm,
                                  retarget)
-from retrieval.errors import StoryBeamError
+from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.library import MotionIndex, choose_clip, clip_path
 from retrieval.motion import load_motion, resample
 
@@ -106,7 +106,10 @@ def load_or_build_index(index_dir: Path, progress: bool = True) -> tuple[MotionI
     """The bundled library's index from ``index_dir``, built and saved there first if
     needed; ``(index, reused)``."""
     if MotionIndex.is_index(index_dir):
-        return MotionIndex.load(index_dir), True
+        try:
+            return MotionIndex.load(index_dir), True
+        except IndexFormatError:  # saved by an older StoryBeam (features on another body): built again below
+            pass
     index = MotionIndex.build(MOTIONS_DIR, fps=30.0, progress=progress_bar("indexing the bundled library", "clip", progress))
     index.save(index_dir)
     return index, False

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.paths import MOTIONS_DIR
-from retrieval.errors import StoryBeamError
+from retrieval.errors import IndexFormatError, StoryBeamError
 
 log = logging.getLogger(__name__)
 
@@ -98,7 +98,14 @@ class MotionCatalog:
             # index thread, so the motion buttons are ready at start-up without it.
             from retrieval.library import MotionIndex  # deferred: imported on the index thread, off the UI's start-up
             saved = self.motions_dir / "index"
-            index = MotionIndex.load(saved) if MotionIndex.is_index(saved) else MotionIndex.build(self.motions_dir)
+            index = None
+            if MotionIndex.is_index(saved):
+                try:
+                    index = MotionIndex.load(saved)
+                except IndexFormatError as exc:  # saved by an older StoryBeam: built from the clips instead
+                    log.warning("saved motion index not used, rebuilding: %s", exc)
+            if index is None:
+                index = MotionIndex.build(self.motions_dir)
             with self._lock:
                 self._index = index
         except (StoryBeamError, ImportError, OSError, ValueError) as exc:

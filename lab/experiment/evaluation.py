@@ -197,10 +197,14 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
              seed: int = 0, band: int | None = None, forbes_clusters: int | None = None,
              progress: Callable[[int, int], None] | None = None, matcher_factory: Callable | None = None,
              backend: str = "auto", split: str = "random", shortlist: int = SHORTLIST,
-             summary: int = SUMMARY) -> dict[str, MethodResult]:
+             summary: int = SUMMARY, seed_clips: Sequence[Clip] | None = None) -> dict[str, MethodResult]:
     """Run the k-fold 1-NN protocol for each method; returns results keyed by method.
     ``split``: "random" (stratified ``folds``) or "subject" (leave one subject group out;
-    ``folds`` is then ignored). ``progress(done, total)`` is called after each fold."""
+    ``folds`` is then ignored). ``progress(done, total)`` is called after each fold.
+    ``seed_clips``: the same clips in the seed's MR17 features, for the seed's methods
+    (needed when ``clips`` carry a set whose MR17 columns are not the seed's, such as
+    the storybeam set on the canonical body); by default the first MR17 columns of
+    ``clips``."""
     for m in methods:
         if m not in METHODS and matcher_factory is None:
             raise EvaluationError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
@@ -210,7 +214,11 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
     parts = stratified_folds(labels, folds, seed) if split == "random" else subject_folds([c.subject for c in clips])
     # the seed's methods see the MR17 columns only (a clip of the "storybeam" set carries them first)
     seed_view = list(clips)
-    if clips and clips[0].features.shape[1] > MR17.dim:
+    if seed_clips is not None:
+        if [c.trial for c in seed_clips] != [c.trial for c in clips]:
+            raise EvaluationError("seed_clips must be the same clips, in the same order, as clips")
+        seed_view = list(seed_clips)
+    elif clips and clips[0].features.shape[1] > MR17.dim:
         seed_view = [replace(c, features=c.features[:, : MR17.dim]) for c in clips]
     warm_up(methods)
     results = {m: MethodResult(m) for m in methods}

@@ -12,8 +12,10 @@ lengths, units and frame rate, and it separates exactly those classes. Its weigh
 (:data:`HEADING_WEIGHT`, 0.5) puts a brisk turn (about 1 rad/s) at half a leg length,
 on the scale of the distances; docs/notebook/results.md has the ablation that chose it.
 
-The first 17 columns are exactly MR17's, so a clip loaded with this set carries the
-seed's features too (:func:`mr17_columns`).
+The distances are taken on the canonical body (:data:`BODY`): every skeleton re-posed
+with the same bone lengths (:func:`~retrieval.motion.canonical_pose`), so a trial on
+another character gives the same features as on its own. The first 17 columns are
+MR17's pairs in MR17's order (:func:`mr17_columns`), on that body.
 """
 from __future__ import annotations
 
@@ -34,8 +36,15 @@ CENTRE = False
 
 #: Which body the distances are taken on: "canonical" re-poses every skeleton onto the
 #: canonical body first (:func:`~retrieval.motion.canonical_pose`; issue 31), "source"
-#: is the file's own.
-BODY = "source"
+#: is the file's own. Canonical since issue 31: on the file's body a clip's features
+#: carry its skeleton's proportions — a long-armed body's hand-to-head distances sit
+#: higher *and* swing wider (twice as wide on the cartoon development conversion), so
+#: neither the class ranking nor "find this clip" (which removes only each column's
+#: offset) recognises a trial converted to another character (the class ranking found
+#: 166 / 205 of the rig's trials, 86 / 205 of the cartoon's; on the canonical body
+#: 205 / 205 each), while CMU and bandai2 hold (docs/notebook/results.md, "The clip
+#: features on the canonical body").
+BODY = "canonical"
 
 _TURN_JOINTS = ("left_hip", "right_hip", "left_shoulder", "right_shoulder")
 

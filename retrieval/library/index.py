@@ -29,7 +29,11 @@ Two methods (``method``):
 under either method. On disk an index is a folder with ``index.json`` (format version,
 method, settings, trials, labels) and ``index.npz`` (quantiser arrays, all codes
 concatenated, per-clip offsets, and for ``storybeam`` the float32 features). An index
-saved before the method existed loads as ``quantized``. Anything unreadable or
+saved before the method existed loads as ``quantized``. ``index.json`` also records the
+body the features were taken on (:func:`features_tag`; before issue 31 the file's own,
+since then the canonical body for ``"storybeam"``): an index whose body is not the one
+this StoryBeam computes a query on raises :class:`IndexFormatError` (build it again),
+since its distances to a query would compare two bodies. Anything unreadable or
 inconsistent raises :class:`IndexFormatError` naming the file.
 """
 from __future__ import annotations
@@ -43,14 +47,28 @@ import numpy as np
 
 from retrieval.codes import DiffTable, Quantizer
 from retrieval.errors import IndexFormatError, StoryBeamError
+from retrieval.features import FeatureError, get_feature_set
 from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import clip_from_motion, load_dataset
 from retrieval.library.storybeam_search import SHORTLIST, SUMMARY, StoryBeamSearcher
-from retrieval.motion import Motion
+from retrieval.motion import CANONICAL_POSE_VERSION, Motion
 from retrieval.search import FastSearcher, SubsequenceSearcher
 
 FORMAT = "storybeam-motion-index"
 VERSION = 1
+
+
+def features_tag(feature_set: str) -> str:
+    """Which body a feature set's features are taken on, as a saved index records it:
+    ``"source"`` (the file's own skeleton; also what an index saved before issue 31
+    holds) or ``"canonical-<version>"`` (:func:`~retrieval.motion.canonical_pose`, its
+    :data:`~retrieval.motion.body.CANONICAL_POSE_VERSION`). A feature set this StoryBeam
+    does not know keeps the saved tag (nothing to compare)."""
+    try:
+        body = get_feature_set(feature_set).body
+    except FeatureError:
+        return ""
+    return f"canonical-{CANONICAL_POSE_VERSION}" if body == "canonical" else body
 METHODS = ("storybeam", "quantized")
 JSON_NAME = "index.json"
 NPZ_NAME = "index.npz"
@@ -269,7 +287,7 @@ class MotionIndex:
         meta = {
             "format": FORMAT, "version": VERSION, "fps": self.fps, "dims": self.dims,
             "band": self.band, "feature_set": self.feature_set, "method": self.method, "shortlist": self.shortlist,
-            "summary": self.summary,
+            "summary": self.summary, "body": features_tag(self.feature_set),
             "trials": self.trials, "labels": self.labels,
         }
         (folder / JSON_NAME).write_text(json.dumps(meta, indent=1))
@@ -298,8 +316,16 @@ class MotionIndex:
             fps, band, fset = float(meta["fps"]), meta.get("band"), str(meta.get("feature_set", "mr17"))
             method, shortlist = str(meta.get("method", "quantized")), int(meta.get("shortlist", SHORTLIST))
             summary = int(meta.get("summary", SUMMARY))
+            saved_body, body = str(meta.get("body", "source")), features_tag(fset)
         except (KeyError, ValueError, TypeError) as exc:
             raise IndexFormatError(f"{jpath}: damaged index ({type(exc).__name__}: {exc})") from None
+        if body and saved_body != body:
+            # a query's features would be computed on another body than the library's
+            def name(tag: str) -> str:
+                return "the file's own body" if tag == "source" else f"the {tag} body"
+            raise IndexFormatError(f"{jpath}: its {fset!r} features were taken on {name(saved_body)}, this "
+                                   f"StoryBeam takes them on {name(body)}: build the index again "
+                                   "(storybeam search --data FOLDER --save-index DIR)")
         try:
             with np.load(npath) as z:
                 arrays = {k: z[k] for k in z.files}

@@ -85,6 +85,31 @@ def test_catalog_lists_classes_and_falls_back_to_same_class(tmp_path):
     assert MotionCatalog(tmp_path / "missing").clips == []
 
 
+def test_catalog_rebuilds_an_index_saved_on_another_body(tmp_path):
+    """A saved index whose features were taken on the file's own body (before issue 31)
+    is not used: the catalogue builds the index from the clips instead."""
+    import json
+
+    from retrieval.library import MotionIndex
+    from retrieval.motion import save_bvh
+    from tests.support.synthetic_motion import make_motion, make_skeleton
+
+    rows = ["trial,label,file,skeleton"]
+    for k in range(4):
+        save_bvh(make_motion(make_skeleton(), frames=40, arm_swing=20.0 + 10 * k), tmp_path / f"t{k}.bvh")
+        rows.append(f"t{k},{'walk' if k % 2 else 'kick'},t{k}.bvh,")
+    (tmp_path / "labels.csv").write_text("\n".join(rows) + "\n")
+    saved = MotionIndex.build(tmp_path, dims=3).save(tmp_path / "index")
+    meta = json.loads((saved / "index.json").read_text())
+    meta["body"] = "source"
+    meta["trials"] = ["stale"] + meta["trials"][1:]  # so the test can tell which index was used
+    (saved / "index.json").write_text(json.dumps(meta))
+    cat = MotionCatalog(tmp_path)
+    cat.start_index()
+    assert cat.wait_index(60) and cat.index_ready, cat._index_error
+    assert cat._index.trials == ["t0", "t1", "t2", "t3"]
+
+
 def test_render_thread_renders_on_its_own_thread_and_keeps_the_newest_request():
     threads, delivered = [], []
     gate = threading.Event()

@@ -13,6 +13,8 @@ import retrieval.search.subsequence as subsequence_module
 from retrieval.codes import full_table
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.library import Clip, MotionIndex, choose_clip
+from retrieval.library.index import features_tag
+from retrieval.motion import CANONICAL_POSE_VERSION
 from retrieval.motion.formats import load_motion
 from retrieval.search.reference import brute_force, brute_force_subsequence
 from tests.support.synthetic_motion import make_motion, make_skeleton, write_bvh
@@ -171,6 +173,31 @@ def test_damaged_index_raises_index_format_error_naming_the_file(synthetic, tmp_
     npz.unlink()
     with pytest.raises(IndexFormatError, match="index.npz"):
         MotionIndex.load(folder)
+
+
+def test_an_index_saved_on_another_body_is_refused(synthetic, tmp_path):
+    """Issue 31 moved the "storybeam" features onto the canonical body: an index saved
+    before (no body recorded: the file's own) would compare a query on one body with a
+    library on another, so it is refused with what to do; the demo builds it again."""
+    clips, _ = synthetic
+    storybeam_clips = [Clip(c.trial, c.label, np.hstack([c.features, np.zeros((len(c.features), 1))]), None, c.fps)
+                       for c in clips]
+    folder = MotionIndex.from_clips(storybeam_clips, dims=4, feature_set="storybeam", method="storybeam").save(
+        tmp_path / "idx")
+    js = folder / "index.json"
+    meta = json.loads(js.read_text())
+    assert meta["body"] == features_tag("storybeam") == f"canonical-{CANONICAL_POSE_VERSION}"
+    assert MotionIndex.load(folder).feature_set == "storybeam"
+    del meta["body"]  # as saved before issue 31
+    js.write_text(json.dumps(meta))
+    with pytest.raises(IndexFormatError, match="index.json: .* the file's own body, .* the canonical-.* body: build the index again"):
+        MotionIndex.load(folder)
+    # the seed's features never moved: an old mr17 index still loads
+    old = MotionIndex.from_clips(clips, dims=4).save(tmp_path / "old")
+    meta = json.loads((old / "index.json").read_text())
+    assert meta.pop("body") == "source"
+    (old / "index.json").write_text(json.dumps(meta))
+    assert MotionIndex.load(old).feature_set == "mr17"
 
 
 def test_the_pruned_subsequence_search_skips_clips(synthetic):

@@ -3,6 +3,7 @@ skeletons, the code-shortlist + float-DTW re-ranking against brute force, the ea
 abandoning kernel, and the leave-one-subject-out protocol."""
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +48,10 @@ def test_storybeam_set_is_mr17_plus_turning_rate():
     assert fs.specs[: MR17.dim] == MR17.specs and fs.names[-1] == "heading_rate"
     m = make_motion(make_skeleton())
     f = motion_features(m, "storybeam")
-    np.testing.assert_array_equal(f[:, : MR17.dim], motion_features(m))  # the seed's columns, bit for bit
+    # MR17's pairs on the canonical body (issue 31), bit for bit; not the file's own MR17
+    assert fs.body == "canonical"
+    np.testing.assert_array_equal(f[:, : MR17.dim], motion_features(m, replace(MR17, body="canonical")))
+    assert np.abs(f[:, : MR17.dim] - motion_features(m)).max() > 0.01
 
 
 @pytest.mark.parametrize("rate", [-60.0, 45.0])
@@ -361,3 +365,20 @@ def test_seed_methods_see_only_the_mr17_columns():
     # and the turning column matters to dtw-storybeam: its distances differ from dtw's
     q, r = clips[0].features, clips[1].features
     assert dtw_features(q, r) != dtw_features(q[:, : MR17.dim], r[:, : MR17.dim])
+
+
+def test_seed_methods_can_keep_the_seeds_own_features():
+    """With the storybeam features on the canonical body, the seed's methods are given
+    the file's own MR17 (``seed_clips``, as ``storybeam eval`` loads them): their answers
+    are those of a seed-only run, and the storybeam methods still see ``clips``."""
+    clips = _clips()
+    weights = np.linspace(0.1, 4.0, MR17.dim)  # another view of the clips: other distances, other answers
+    other = [Clip(c.trial, c.label, c.features[:, : MR17.dim] * weights, None, 30.0, subject=c.subject)
+             for c in clips]
+    mixed = evaluate(clips, ["dtw", "dtw-storybeam"], folds=3, seed_clips=other)
+    alone = evaluate(other, ["dtw"], folds=3)
+    assert mixed["dtw"].predictions == alone["dtw"].predictions
+    assert mixed["dtw"].predictions != evaluate(clips, ["dtw"], folds=3)["dtw"].predictions
+    assert mixed["dtw-storybeam"].predictions == evaluate(clips, ["dtw-storybeam"], folds=3)["dtw-storybeam"].predictions
+    with pytest.raises(EvaluationError, match="same clips"):
+        evaluate(clips, ["dtw"], folds=3, seed_clips=other[::-1])
