@@ -40,8 +40,7 @@ from lab.bench.act_videos import run_act_videos_bench
 from retrieval.features import FrontalFeatureSet, get_feature_set, leg_length, register_feature_set
 from retrieval.features.frontal import FRONTAL
 from retrieval.features.relational import FLOOR_PERCENTILE, MR17
-from retrieval.library import ActSearch, read_labels
-from retrieval.library.act_search import Augment
+from retrieval.library import ActSearch, Augment, read_labels
 from retrieval.library.clip import Clip
 from retrieval.motion import canonical_joint_map, load_motion, positions, resample, rest_positions
 

@@ -23,7 +23,7 @@ from typing import Sequence
 import numpy as np
 
 from retrieval.features import get_feature_set
-from retrieval.library.act_search import mirror_permutation, time_scale  # the act index's augmentation uses them too
+from retrieval.library import mirror_permutation, time_scale  # the act index's augmentation uses them too
 
 TIME_SCALE_RANGE = (0.8, 1.25)
 __all__ = ["TIME_SCALE_RANGE", "MIRROR_NEGATED", "augmented_take", "mirror", "mirror_permutation", "splice", "time_scale"]

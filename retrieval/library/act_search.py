@@ -123,7 +123,8 @@ class Augment:
       :func:`time_scale`; 1.25 = faster);
     * ``hops``: every ``jump`` clip's highest take-off–flight–landing cycle, found from the
       hips' height (:func:`hop_cycle`), tiled end to end at its own cadence into one
-      window — a repeated jump in place.
+      window — a repeated jump in place (two-footed cycles only,
+      :data:`HOP_FEET_CORRELATION`).
     """
 
     mirror: bool = False
@@ -148,6 +149,10 @@ AUGMENT = Augment()
 HOP_LABEL = "jump"
 HOP_MIN_RISE = 0.2
 HOP_SECONDS = (0.2, 1.6)
+#: A cycle is tiled only when both ankles rise together (the correlation of their heights
+#: over the cycle at least this): a two-footed jump, as a jump in place is; a hop on one
+#: foot or a running jump is not tiled.
+HOP_FEET_CORRELATION = 0.9
 
 
 def _swap_side(name: str) -> str:
@@ -224,7 +229,8 @@ def augmented_clips(clips: Sequence[Clip], augment: Augment, feature_set: str,
     window of its tiled hop cycle."""
     out: list[tuple[Clip, str, int, float]] = []
     perm = mirror_permutation(feature_set) if augment.mirror else None
-    hips = get_feature_set(feature_set).names.index("hips_height") if augment.hops else -1
+    names = get_feature_set(feature_set).names
+    hips, ankles = names.index("hips_height"), [names.index("lankle_height"), names.index("rankle_height")]
     for c in clips:
         variants = [c.features] + ([c.features[:, perm]] if perm is not None else [])
         for f in variants[1:]:
@@ -234,7 +240,7 @@ def augmented_clips(clips: Sequence[Clip], augment: Augment, feature_set: str,
                 out.append((replace(c, features=time_scale(f, 1.0 / t).astype(c.features.dtype)), c.trial, 0, t))
         if augment.hops and c.label == HOP_LABEL:
             cyc = hop_cycle(c.features[:, hips], c.fps, augment.hop_dip)
-            if cyc is not None:
+            if cyc is not None and np.corrcoef(c.features[cyc[0]:cyc[1], ankles].T)[0, 1] >= HOP_FEET_CORRELATION:
                 a, b = cyc
                 n = max(2, int(round(seconds * c.fps)))
                 tiled = np.resize(c.features[a:b], (n, c.features.shape[1]))  # cycle after cycle (rows repeat)

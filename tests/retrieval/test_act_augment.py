@@ -18,7 +18,8 @@ from retrieval.library.act_search import (AUGMENT, Augment, augmented_clips, hop
 from tests.support.synthetic_motion import make_motion, make_skeleton
 
 FPS = 30.0
-HIPS = get_feature_set("frontal").names.index("hips_height")
+NAMES = get_feature_set("frontal").names
+HIPS, ANKLES = NAMES.index("hips_height"), [NAMES.index("lankle_height"), NAMES.index("rankle_height")]
 
 
 def _jump_profile(n: int) -> np.ndarray:
@@ -45,6 +46,7 @@ def _clips():
         if label == "jump":
             f = c.features.copy()
             f[:, HIPS] = _jump_profile(len(f)) + 0.05 * k
+            f[:, ANKLES] = 0.1 + 1.5 * np.maximum(f[:, [HIPS]] - 2.35 - 0.05 * k, 0.0)  # both feet leave the floor
             c = replace(c, features=f)
         out.append(c)
     return out
@@ -58,6 +60,15 @@ def test_hop_cycle_runs_from_the_crouch_to_the_landing():
     assert a < la < 52 < lb < b
     assert hop_cycle(np.full(150, 2.3), FPS) is None  # no flight, no hop
     assert hop_cycle(h[:3], FPS) is None
+
+
+def test_only_two_footed_jumps_are_tiled():
+    clips = _clips()
+    one_foot = clips[2].features.copy()
+    one_foot[:, ANKLES[1]] = 0.1  # the right foot stays down: a hop on one foot
+    clips[2] = replace(clips[2], features=one_foot)
+    derived = augmented_clips(clips, Augment(hops=True), "frontal", 3.5)
+    assert [t for _, t, _, _ in derived] == ["t3"]
 
 
 def test_derived_windows_carry_their_source_label_and_name():
