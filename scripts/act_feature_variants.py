@@ -8,7 +8,10 @@ A ``VARIANT`` is ``base`` (the frontal set with MR17's weights, floor at the 2nd
 percentile) or ``+``-joined parts: ``hN`` every height weighted N, ``hipsN`` /
 ``anklesN`` the hips' / the ankles' heights weighted N, ``flP`` the heights' floor at the
 P-th percentile of the lowest foot (``fl30+h2`` is the registered ``"frontal"`` set since
-2026-11-28). Per variant the library (``--data``) is indexed with that set (the clips'
+2026-11-28); and library-side augmentation (:class:`retrieval.library.act_search.Augment`):
+``mirror`` every clip mirrored too, ``xT`` every clip at speed T too (``x0.8``, ``x1.25``),
+``hops`` every jump's hop cycle tiled into a repeated jump (``hops@D``: cut where the hips
+cross their median less D, a light hop). Per variant the library (``--data``) is indexed with that set (the clips'
 joint positions are read once and kept in memory) and measured, search only, on
 
 * the real development set (``--videos``, landmarks cached by ``storybeam bench
@@ -24,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import time
 from collections import defaultdict
 from dataclasses import replace
 from pathlib import Path
@@ -36,17 +40,23 @@ from lab.bench.act_videos import run_act_videos_bench
 from retrieval.features import FrontalFeatureSet, get_feature_set, leg_length, register_feature_set
 from retrieval.features.frontal import FRONTAL
 from retrieval.features.relational import FLOOR_PERCENTILE, MR17
-from retrieval.library import ActSearch, read_labels
+from retrieval.library import ActSearch, Augment, read_labels
 from retrieval.library.clip import Clip
 from retrieval.motion import canonical_joint_map, load_motion, positions, resample, rest_positions
 
 FPS = 30.0
 
 
-def variant_set(variant: str) -> FrontalFeatureSet:
-    """The frontal feature set a ``VARIANT`` names (module docstring), registered."""
+def variant_set(variant: str) -> tuple[FrontalFeatureSet, Augment]:
+    """The frontal feature set a ``VARIANT`` names (module docstring), registered, and its
+    augmentation."""
     specs, floor = list(MR17.specs), FLOOR_PERCENTILE
+    mirror, tempos, hops, dip = False, [], False, None
     for part in ([] if variant == "base" else variant.split("+")):
+        if part in ("mirror", "hops") or part.startswith("hops@"):
+            mirror, hops = mirror or part == "mirror", hops or part.startswith("hops")
+            dip = float(part[5:]) if part.startswith("hops@") else dip
+            continue
         key = part.rstrip("0123456789.")
         try:
             value = float(part[len(key):])
@@ -54,14 +64,17 @@ def variant_set(variant: str) -> FrontalFeatureSet:
             raise SystemExit(f"{variant}: {part!r} needs a number (h2, hips1.5, fl30)") from None
         names = {"h": ("lankle_height", "rankle_height", "hips_height"), "hips": ("hips_height",),
                  "ankles": ("lankle_height", "rankle_height")}
-        if key == "fl":
+        if key == "x":
+            tempos.append(value)
+        elif key == "fl":
             floor = value
         elif key in names:
             specs = [replace(s, weight=value) if s.name in names[key] else s for s in specs]
         else:
-            raise SystemExit(f"{variant}: unknown part {part!r} (h, hips, ankles, fl)")
-    return register_feature_set(replace(FRONTAL, name=f"frontal_variant_{variant}", specs=tuple(specs),
-                                        floor_percentile=floor, description=f"variant {variant}"))
+            raise SystemExit(f"{variant}: unknown part {part!r} (h, hips, ankles, fl, x, mirror, hops)")
+    fs = register_feature_set(replace(FRONTAL, name=f"frontal_variant_{variant}", specs=tuple(specs),
+                                      floor_percentile=floor, description=f"variant {variant}"))
+    return fs, Augment(mirror, tuple(tempos), hops, dip)
 
 
 def library_positions(data: Path) -> list[tuple]:
@@ -77,11 +90,14 @@ def library_positions(data: Path) -> list[tuple]:
 
 def measure(variant: str, library: list[tuple], args: argparse.Namespace) -> dict:
     """The three measures of one variant (module docstring)."""
-    fs = variant_set(variant)
+    fs, augment = variant_set(variant)
     clips = [Clip(r.trial, r.label, fs.from_positions(p, jm, leg, FPS, rest), None, FPS, str(r.file), r.subject)
              for r, p, jm, leg, rest in library]
-    search = ActSearch.from_clips(clips, feature_set=fs.name)
+    t0 = time.perf_counter()
+    search = ActSearch.from_clips(clips, feature_set=fs.name, augment=augment)
+    build_s = time.perf_counter() - t0
     real = run_act_videos_bench(args.videos, args.data, args.video_cache, 3, search=search)
+    real_ms = [c["search_ms"] for c in real["clips"] if c.get("search_ms") is not None]
     per = defaultdict(lambda: [0, 0])
     for c in real["clips"]:
         per[c["label"]][0] += c["predicted"] == c["label"]
@@ -94,12 +110,15 @@ def measure(variant: str, library: list[tuple], args: argparse.Namespace) -> dic
             subjects[r.subject].add(r.trial)
     guard = {v: rendered.evaluate_variant(search, chosen, v, 2, args.guard_cache, subjects) for v in ("person", "kid")}
     cams = run_act_cameras_bench(args.data, 60, 2, search=search)["conditions"]
-    return {"variant": variant, "feature_set": repr(get_feature_set(fs.name)),
+    return {"variant": variant, "feature_set": repr(get_feature_set(fs.name)), "augment": augment.key(),
+            "windows": len(search.index), "short_windows": len(search.short.index) if search.short else 0,
+            "index_build_s": build_s, "real_search_ms_median": float(np.median(real_ms)) if real_ms else None,
             "real": {"right": sum(a for a, _ in per.values()), "clips": len(real["clips"]),
                      "per_class": {k: f"{a}/{b}" for k, (a, b) in per.items()},
                      "predicted": {c["file"]: c["predicted"] for c in real["clips"]}},
             "guard": {v: {"accuracy": g["accuracy_trial_out"], "ceiling": g["ceiling_trial_out"],
-                          "recall": g["recall"]} for v, g in guard.items()},
+                          "subject_out": g.get("accuracy_subject_out"), "recall": g["recall"],
+                          "search_ms_median": g.get("search_ms")} for v, g in guard.items()},
             "cameras": {c["condition"]["name"]: {"accuracy": c["accuracy"], "recall": c["recall"]} for c in cams}}
 
 
@@ -117,7 +136,9 @@ def main() -> None:
         r = measure(v, library, args)
         cams = r["cameras"]
         print(f"{v}: real {r['real']['right']}/{r['real']['clips']} {r['real']['per_class']}; "
-              + "; ".join(f"{k} {g['accuracy']:.3f}" for k, g in r["guard"].items())
+              + "; ".join(f"{k} {g['accuracy']:.3f} (subject out {g['subject_out']})" for k, g in r["guard"].items())
+              + f"; windows {r['windows']}+{r['short_windows']}, build {r['index_build_s']:.2f} s, "
+              f"real search {r['real_search_ms_median']} ms"
               + f"; cameras mean {np.mean([c['accuracy'] for c in cams.values()]):.3f}\n  "
               + ", ".join(f"{k} {c['accuracy']:.3f} (kick {c['recall'].get('kick', 0):.2f})" for k, c in cams.items()))
         if args.json:

@@ -22,33 +22,11 @@ from typing import Sequence
 
 import numpy as np
 
-from retrieval.errors import StoryBeamError
 from retrieval.features import get_feature_set
+from retrieval.library import mirror_permutation, time_scale  # the act index's augmentation uses them too
 
 TIME_SCALE_RANGE = (0.8, 1.25)
-
-
-def _swap_side(name: str) -> str:
-    """"lhand_rshoulder" -> "rhand_lshoulder": swap the l/r prefix of every word."""
-    words = []
-    for w in name.split("_"):
-        if len(w) > 1 and w[0] in "lr" and w[1:] in ("hand", "ankle", "knee", "elbow", "hip", "shoulder", "foot", "toe"):
-            w = ("r" if w[0] == "l" else "l") + w[1:]
-        words.append(w)
-    return "_".join(words)
-
-
-def mirror_permutation(feature_set: str = "mr17") -> np.ndarray:
-    """Column permutation that mirrors a feature matrix left/right."""
-    names = get_feature_set(feature_set).names
-    index = {n: i for i, n in enumerate(names)}
-    perm = []
-    for n in names:
-        m = _swap_side(n)
-        if m not in index:
-            raise StoryBeamError(f"feature set {feature_set!r}: no mirror partner {m!r} for feature {n!r}")
-        perm.append(index[m])
-    return np.array(perm, dtype=np.int64)
+__all__ = ["TIME_SCALE_RANGE", "MIRROR_NEGATED", "augmented_take", "mirror", "mirror_permutation", "splice", "time_scale"]
 
 
 #: Features whose sign flips in a mirror image (a left turn becomes a right turn).
@@ -63,19 +41,6 @@ def mirror(features: np.ndarray, feature_set: str = "mr17") -> np.ndarray:
     if signed:
         out[:, signed] = -out[:, signed]
     return out
-
-
-def time_scale(features: np.ndarray, factor: float) -> np.ndarray:
-    """Resample (T, d) features to round(T·factor) frames by linear interpolation."""
-    if not factor > 0:
-        raise StoryBeamError(f"time-scale factor must be positive, got {factor}")
-    x = np.asarray(features, dtype=np.float64)
-    n = max(2, int(round(len(x) * factor)))
-    src = np.linspace(0.0, len(x) - 1, n)
-    lo = np.floor(src).astype(np.int64)
-    hi = np.minimum(lo + 1, len(x) - 1)
-    t = (src - lo)[:, None]
-    return x[lo] * (1 - t) + x[hi] * t
 
 
 def splice(parts: Sequence[np.ndarray], rng: np.random.Generator, min_keep: float = 0.5) -> np.ndarray:

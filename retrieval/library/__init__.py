@@ -7,7 +7,7 @@ from __future__ import annotations
 # the re-ranking kernels and what StoryBeamSearcher answers, for callers of the library
 from retrieval.dtw import dtw_features_abandon, dtw_features_abandon_t, dtw_features_many
 from retrieval.search import Hit
-from retrieval.library.act_search import ActSearch
+from retrieval.library.act_search import ActSearch, Augment, mirror_permutation, time_scale
 from retrieval.library.bundle import SELECTION as BUNDLE_SELECTION
 from retrieval.library.bundle import build as build_bundle
 from retrieval.library.clip import Clip, Match
@@ -59,6 +59,9 @@ __all__ = [
     "load_dataset",
     "MotionIndex",
     "ActSearch",
+    "Augment",
+    "mirror_permutation",
+    "time_scale",
     "StoryBeamSearcher",
     "Hit",
     "SHORTLIST",

@@ -43,7 +43,7 @@ subject and motion file).
 from __future__ import annotations
 
 import json
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Collection, Mapping, Sequence
 
@@ -111,6 +111,143 @@ def windows(clips: Sequence[Clip], seconds: float = WINDOW_SECONDS) -> list[tupl
     return out
 
 
+@dataclass(frozen=True)
+class Augment:
+    """Library-side augmentation of the act index, made from the library's own trials at
+    build time (never new clips); every derived window carries its source trial's name,
+    so ``exclude`` leaves it out with its source:
+
+    * ``mirror``: every clip also left/right mirrored (the sided feature columns swapped,
+      :func:`mirror_permutation`) — a kick with the other leg;
+    * ``tempos``: every clip also played at these speeds (features resampled in time,
+      :func:`time_scale`; 1.25 = faster);
+    * ``hops``: every ``jump`` clip's highest take-off–flight–landing cycle, found from the
+      hips' height (:func:`hop_cycle`), tiled end to end at its own cadence into one
+      window — a repeated jump in place (two-footed cycles only,
+      :data:`HOP_FEET_CORRELATION`).
+    """
+
+    mirror: bool = False
+    tempos: tuple[float, ...] = ()
+    hops: bool = False
+    #: Where a hop cycle is cut (:func:`hop_cycle`): None at the crouch and landing
+    #: minima; a number ``d``, where the hips cross the clip's median height less ``d``
+    #: (a light hop: the flight without the crouch).
+    hop_dip: float | None = None
+
+    def key(self) -> str:
+        """The settings as a saved index records them (:meth:`ActSearch.load` compares)."""
+        parts = (["mirror"] if self.mirror else []) + [f"x{t:g}" for t in self.tempos] + ([f"hops{'' if self.hop_dip is None else f'@{self.hop_dip:g}'}"] if self.hops else [])
+        return "+".join(parts) or "none"
+
+
+#: The act index's augmentation (module docstring of :class:`Augment`).
+AUGMENT = Augment()
+#: Label of the clips whose hop cycles are tiled, and the cycle's limits: the flight must
+#: lift the hips this many (weighted) feature units above the clip's median, the cycle
+#: last between these many seconds.
+HOP_LABEL = "jump"
+HOP_MIN_RISE = 0.2
+HOP_SECONDS = (0.2, 1.6)
+#: A cycle is tiled only when both ankles rise together (the correlation of their heights
+#: over the cycle at least this): a two-footed jump, as a jump in place is; a hop on one
+#: foot or a running jump is not tiled.
+HOP_FEET_CORRELATION = 0.9
+
+
+def _swap_side(name: str) -> str:
+    """"lhand_rshoulder" -> "rhand_lshoulder": swap the l/r prefix of every word."""
+    words = []
+    for w in name.split("_"):
+        if len(w) > 1 and w[0] in "lr" and w[1:] in ("hand", "ankle", "knee", "elbow", "hip", "shoulder", "foot", "toe"):
+            w = ("r" if w[0] == "l" else "l") + w[1:]
+        words.append(w)
+    return "_".join(words)
+
+
+def mirror_permutation(feature_set: str = "mr17") -> np.ndarray:
+    """Column permutation that mirrors a feature matrix left/right (each sided feature
+    exchanged with its partner, ``lhand_head`` ↔ ``rhand_head``; symmetric ones stay)."""
+    names = get_feature_set(feature_set).names
+    index = {n: i for i, n in enumerate(names)}
+    perm = []
+    for n in names:
+        m = _swap_side(n)
+        if m not in index:
+            raise StoryBeamError(f"feature set {feature_set!r}: no mirror partner {m!r} for feature {n!r}")
+        perm.append(index[m])
+    return np.array(perm, dtype=np.int64)
+
+
+def time_scale(features: np.ndarray, factor: float) -> np.ndarray:
+    """Resample (T, d) features to round(T·factor) frames by linear interpolation."""
+    if not factor > 0:
+        raise StoryBeamError(f"time-scale factor must be positive, got {factor}")
+    x = np.asarray(features, dtype=np.float64)
+    n = max(2, int(round(len(x) * factor)))
+    src = np.linspace(0.0, len(x) - 1, n)
+    lo = np.floor(src).astype(np.int64)
+    hi = np.minimum(lo + 1, len(x) - 1)
+    t = (src - lo)[:, None]
+    return x[lo] * (1 - t) + x[hi] * t
+
+
+def hop_cycle(hips: np.ndarray, fps: float, dip: float | None = None) -> tuple[int, int] | None:
+    """(first, last) frame of the highest jump of a hips-height series: from the crouch
+    before take-off (the lowest point of the descent into the peak) to the lowest point
+    of the landing after it, read on a 5-frame running mean — or, with ``dip``, from where
+    the hips rise through the median less ``dip`` to where they fall through it; None when
+    the peak rises less than :data:`HOP_MIN_RISE` above the median or the cycle's length
+    is outside :data:`HOP_SECONDS`."""
+    h = np.asarray(hips, dtype=np.float64)
+    if len(h) < 5:
+        return None
+    h = np.convolve(np.pad(h, 2, mode="edge"), np.ones(5) / 5, mode="valid")
+    peak = int(np.argmax(h))
+    if h[peak] - np.median(h) < HOP_MIN_RISE:
+        return None
+    a = peak
+    while a > 0 and h[a - 1] <= h[a]:
+        a -= 1
+    b = peak
+    while b < len(h) - 1 and h[b + 1] <= h[b]:
+        b += 1
+    if dip is not None:  # cut higher up, where the hips cross the level
+        level = np.median(h) - dip
+        a = max(a, peak - int(np.argmax(h[a:peak + 1][::-1] < level)) if np.any(h[a:peak + 1] < level) else a)
+        b = min(b, peak + int(np.argmax(h[peak:b + 1] < level)) if np.any(h[peak:b + 1] < level) else b)
+    if not HOP_SECONDS[0] * fps <= b - a <= HOP_SECONDS[1] * fps:
+        return None
+    return a, b
+
+
+def augmented_clips(clips: Sequence[Clip], augment: Augment, feature_set: str,
+                    seconds: float) -> list[tuple[Clip, str, int, float]]:
+    """What :class:`Augment` derives from ``clips``, as (clip, source trial, start frame
+    in the source, source frames per derived frame) to be cut into windows like the
+    originals: mirrored and tempo-changed whole clips, and per jump a ``seconds``-long
+    window of its tiled hop cycle."""
+    out: list[tuple[Clip, str, int, float]] = []
+    perm = mirror_permutation(feature_set) if augment.mirror else None
+    names = get_feature_set(feature_set).names
+    hips, ankles = names.index("hips_height"), [names.index("lankle_height"), names.index("rankle_height")]
+    for c in clips:
+        variants = [c.features] + ([c.features[:, perm]] if perm is not None else [])
+        for f in variants[1:]:
+            out.append((replace(c, features=f.astype(c.features.dtype)), c.trial, 0, 1.0))
+        for t in augment.tempos:
+            for f in variants:
+                out.append((replace(c, features=time_scale(f, 1.0 / t).astype(c.features.dtype)), c.trial, 0, t))
+        if augment.hops and c.label == HOP_LABEL:
+            cyc = hop_cycle(c.features[:, hips], c.fps, augment.hop_dip)
+            if cyc is not None and np.corrcoef(c.features[cyc[0]:cyc[1], ankles].T)[0, 1] >= HOP_FEET_CORRELATION:
+                a, b = cyc
+                n = max(2, int(round(seconds * c.fps)))
+                tiled = np.resize(c.features[a:b], (n, c.features.shape[1]))  # cycle after cycle (rows repeat)
+                out.append((replace(c, features=tiled.astype(c.features.dtype)), c.trial, a, 1.0))
+    return out
+
+
 class ActSearch:
     """A frontal-feature index over a labelled library (see the module docstring):
     ``index`` a storybeam-method :class:`MotionIndex` built with a frontal feature set,
@@ -120,7 +257,8 @@ class ActSearch:
     :data:`SHORT_TAKE_SECONDS` (None: every take is searched here)."""
 
     def __init__(self, index: MotionIndex, names: Sequence[str], starts: Sequence[int], subjects: Sequence[str],
-                 paths: Sequence[str], shortlist: int = ACT_SHORTLIST, short: "ActSearch | None" = None):
+                 paths: Sequence[str], shortlist: int = ACT_SHORTLIST, short: "ActSearch | None" = None,
+                 augment: str = "none"):
         fset = get_feature_set(index.feature_set)
         if not isinstance(fset, FrontalFeatureSet) or index.clip_features is None:
             raise StoryBeamError(f"an act search needs a storybeam index of frontal features ({FEATURE_SET!r}), got "
@@ -143,37 +281,43 @@ class ActSearch:
         if short is not None and (short.index.feature_set != index.feature_set or short.clip_names != self.clip_names):
             raise StoryBeamError("act search: the short-window index must hold the same clips and features")
         self.short = short
+        #: :meth:`Augment.key` of the augmentation the index was built with.
+        self.augment = str(augment)
 
     # ------------------------------------------------------------------ building
     @classmethod
     def from_clips(cls, clips: Sequence[Clip], dims: int = 6, shortlist: int = ACT_SHORTLIST,
                    feature_set: str = FEATURE_SET, window_seconds: float = WINDOW_SECONDS,
-                   short_seconds: float | None = SHORT_WINDOW_SECONDS) -> "ActSearch":
+                   short_seconds: float | None = SHORT_WINDOW_SECONDS, augment: Augment = AUGMENT) -> "ActSearch":
         """An act search over ``clips`` (their features must be of ``feature_set``, a
         frontal set), cut into windows of ``window_seconds`` (0: whole clips), with a
-        second index of ``short_seconds`` windows for short takes (None: none)."""
+        second index of ``short_seconds`` windows for short takes (None: none), and the
+        windows ``augment`` derives from the clips (:class:`Augment`)."""
         if clips and clips[0].features.shape[1] != get_feature_set(feature_set).dim:
             raise StoryBeamError(f"act search: clips must carry {feature_set!r} features")
         if len({c.trial for c in clips}) != len(clips):
             raise StoryBeamError("act search: clip names must be unique")
         entries = windows(clips, window_seconds)
+        for clip, trial, start, speed in augmented_clips(clips, augment, feature_set, window_seconds or WINDOW_SECONDS):
+            entries += [(w, trial, start + int(round(s * speed))) for w, _, s in windows([clip], window_seconds)]
         fset = get_feature_set(feature_set)
         if isinstance(fset, FrontalFeatureSet) and fset.relative:  # per window, as a take is per take
             entries = [(replace(w, features=fset.relative_to_segment(w.features).astype(w.features.dtype)), n, s)
                        for w, n, s in entries]
         index = MotionIndex.from_clips([w for w, _, _ in entries], dims, feature_set=feature_set, method="storybeam")
-        short = None if short_seconds is None else cls.from_clips(clips, dims, shortlist, feature_set, short_seconds, None)
+        short = None if short_seconds is None else cls.from_clips(clips, dims, shortlist, feature_set, short_seconds,
+                                                                  None, augment)
         return cls(index, [n for _, n, _ in entries], [s for _, _, s in entries], [w.subject for w, _, _ in entries],
-                   [w.source for w, _, _ in entries], shortlist, short)
+                   [w.source for w, _, _ in entries], shortlist, short, augment.key())
 
     @classmethod
     def build(cls, folder: str | Path, fps: float = 30.0, dims: int = 6,
               progress: Callable[[int, int], None] | None = None, shortlist: int = ACT_SHORTLIST,
               feature_set: str = FEATURE_SET, window_seconds: float = WINDOW_SECONDS,
-              short_seconds: float | None = SHORT_WINDOW_SECONDS) -> "ActSearch":
+              short_seconds: float | None = SHORT_WINDOW_SECONDS, augment: Augment = AUGMENT) -> "ActSearch":
         """Every clip of a labelled folder (:mod:`retrieval.library.dataset`) at ``fps``."""
         return cls.from_clips(load_dataset(folder, fps=fps, feature_set=feature_set, progress=progress), dims,
-                              shortlist, feature_set, window_seconds, short_seconds)
+                              shortlist, feature_set, window_seconds, short_seconds, augment)
 
     def save(self, folder: str | Path) -> Path:
         folder = Path(folder)
@@ -182,13 +326,16 @@ class ActSearch:
                                                    "subjects": self.subjects, "paths": self.paths,
                                                    "shortlist": self.shortlist,
                                                    "relative": list(self.feature_set.relative),
-                                                   "features": feature_key(self.feature_set)}, indent=1))
+                                                   "features": feature_key(self.feature_set),
+                                                   "augment": self.augment}, indent=1))
         if self.short is not None:
             self.short.save(folder / SHORT_FOLDER)
         return folder
 
     @classmethod
-    def load(cls, folder: str | Path) -> "ActSearch":
+    def load(cls, folder: str | Path, augment: Augment = AUGMENT) -> "ActSearch":
+        """A saved act search; :class:`IndexFormatError` when it was built with other
+        features or another augmentation than ``augment`` (rebuild it)."""
         folder = Path(folder)
         index = MotionIndex.load(folder)
         path = folder / ACT_JSON
@@ -197,13 +344,17 @@ class ActSearch:
             names, starts = list(meta["names"]), [int(s) for s in meta["starts"]]
             subjects, paths, shortlist = list(meta["subjects"]), list(meta["paths"]), int(meta["shortlist"])
             relative, features = tuple(meta.get("relative", ())), meta.get("features")
+            built = str(meta.get("augment", "none"))
         except FileNotFoundError:
             raise IndexFormatError(f"{path}: not found (not an act search folder)") from None
         except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
             raise IndexFormatError(f"{path}: unreadable ({type(exc).__name__}: {exc})") from None
-        short = cls.load(folder / SHORT_FOLDER) if (folder / SHORT_FOLDER / ACT_JSON).is_file() else None
+        if built != augment.key():
+            raise IndexFormatError(f"{path}: built with the augmentation {built!r}, the act index now uses "
+                                   f"{augment.key()!r}: rebuild it")
+        short = cls.load(folder / SHORT_FOLDER, augment) if (folder / SHORT_FOLDER / ACT_JSON).is_file() else None
         try:
-            search = cls(index, names, starts, subjects, paths, shortlist, short)
+            search = cls(index, names, starts, subjects, paths, shortlist, short, built)
         except StoryBeamError as exc:
             raise IndexFormatError(f"{folder}: {exc}") from None
         if relative != search.feature_set.relative:
@@ -338,6 +489,6 @@ def positions_leg_length(pos: np.ndarray, joint_map: Mapping[str, int]) -> float
     return size
 
 
-__all__ = ["ACT_SHORTLIST", "WINDOW_SECONDS", "RANK_FACTOR", "SHORT_TAKE_SECONDS", "SHORT_WINDOW_SECONDS", "ActSearch",
+__all__ = ["ACT_SHORTLIST", "AUGMENT", "Augment", "augmented_clips", "hop_cycle", "mirror_permutation", "time_scale", "WINDOW_SECONDS", "RANK_FACTOR", "SHORT_TAKE_SECONDS", "SHORT_WINDOW_SECONDS", "ActSearch",
            "FEATURE_SET", "feature_key",
            "positions_leg_length", "resample_positions", "windows"]

@@ -13,6 +13,7 @@ from lab.bench import augment
 from lab.bench.augment import TIME_SCALE_RANGE, augmented_take, mirror, mirror_permutation, splice, time_scale
 from retrieval.errors import StoryBeamError
 from retrieval.features import get_feature_set
+from retrieval.library import act_search
 
 NAMES = list(get_feature_set("mr17").names)
 
@@ -69,7 +70,8 @@ def test_derived_takes_are_the_scale_librarys_stream():
 
 
 def test_a_feature_without_a_mirror_partner_is_an_error(monkeypatch):
-    monkeypatch.setattr(augment, "get_feature_set", lambda name: SimpleNamespace(names=["hand_hand", "lhand_head"]))
+    # mirror_permutation lives with the act index's augmentation (retrieval.library.act_search)
+    monkeypatch.setattr(act_search, "get_feature_set", lambda name: SimpleNamespace(names=["hand_hand", "lhand_head"]))
     with pytest.raises(StoryBeamError, match="rhand_head"):
         mirror_permutation("lopsided")
 
