@@ -98,9 +98,9 @@ def test_derived_windows_carry_their_source_label_and_name():
 
 def test_the_index_holds_the_derived_windows_under_their_source_trial():
     clips = _clips()
-    plain = ActSearch.from_clips(clips, dims=4)
+    plain = ActSearch.from_clips(clips, dims=4, augment=Augment())
     aug = ActSearch.from_clips(clips, dims=4, augment=Augment(mirror=True, hops=True))
-    assert plain.augment == AUGMENT.key() and aug.augment == "mirror+hops"
+    assert plain.augment == "none" and aug.augment == "mirror+hops"
     assert aug.clip_names == plain.clip_names and len(aug) == len(plain) == 4  # no new clips, more windows
     for name in plain.clip_names:
         extra = 1 if name in ("t2", "t3") else 0
@@ -141,3 +141,20 @@ def test_a_saved_index_is_refused_under_another_augmentation(tmp_path):
     assert ActSearch.load(plain).augment == AUGMENT.key()
     with pytest.raises(IndexFormatError, match="rebuild"):
         ActSearch.load(plain, Augment(mirror=True))
+
+
+def test_the_product_index_is_mirrored_with_light_hops():
+    """The default act index (what `storybeam search --video` and the app build) holds every
+    clip mirrored, so a take done with the other leg finds its trial, and tiles the
+    two-footed jumps' light hops; undoing :data:`AUGMENT` fails this."""
+    clips = _clips()
+    search = ActSearch.from_clips(clips, dims=4, shortlist=10_000)
+    assert search.augment == AUGMENT.key() == "mirror+hops@0.3"
+    walk = clips[0].features[:105]
+    mirrored = walk[:, mirror_permutation("frontal")]
+    assert not np.allclose(mirrored, walk)
+    hit = search.search_features(mirrored, k=1)[0]
+    assert hit.trial == "t0" and hit.distance < 1e-6
+    plain = ActSearch.from_clips(clips, dims=4, shortlist=10_000, augment=Augment())
+    assert plain.search_features(mirrored, k=1)[0].distance > 1e-3
+    assert len(search.names) > 2 * len(plain.names)  # mirrored windows and the tiled hops

@@ -77,7 +77,10 @@ def test_equals_exact_dtw_over_the_library(library):
     jm = canonical_joint_map(m.skeleton)
     q = search.position_features(positions(m)[5:40], 30.0, jm, leg_length(m.skeleton, jm))
     q32 = q.astype(np.float32).astype(np.float64)
-    want = sorted((dtw_features(q32, f), t) for f, t in zip(search.index.clip_features, search.index.trials))
+    nearest: dict[str, float] = {}  # a trial's nearest window (its mirror, a tiled hop, ...)
+    for f, t in zip(search.index.clip_features, search.index.trials):
+        nearest[t] = min(nearest.get(t, np.inf), dtw_features(q32, f))
+    want = sorted((d, t) for t, d in nearest.items())
     hits = search.search_features(q, k=len(motions), exclude=[m.name])
     assert [h.trial for h in hits] == [t for _, t in want if t != m.name]
     np.testing.assert_allclose([h.distance for h in hits], [d for d, t in want if t != m.name], rtol=1e-9)
