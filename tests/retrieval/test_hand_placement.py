@@ -61,7 +61,10 @@ def test_body_axes_with_no_across_direction_fall_back_instead_of_nan():
 
 def test_hand_columns_on_the_synthetic_body():
     sk = make_skeleton()
-    f = motion_features(make_motion(sk, frames=2, arm_swing=0, knee_bend=0), "storybeam-hands")
+    # on the file's own body, where the synthetic skeleton's 18 cm are 18 cm (the registered
+    # set re-poses onto the canonical body, whose shoulders sit elsewhere)
+    own_body = storybeam_feature_set(name="storybeam-hands-source", hands_weight=1.0, body="source")
+    f = motion_features(make_motion(sk, frames=2, arm_swing=0, knee_bend=0), own_body)
     names, legs = STORYBEAM_HANDS.names, leg_length(sk)
     # the hands hang 18 cm to either side of the spine: left one on the left, right one on the right
     assert f[0, names.index("lhand_across")] == pytest.approx(-0.18 / legs)
