@@ -8,7 +8,9 @@ A ``VARIANT`` is ``base`` (the frontal set with MR17's weights, floor at the 2nd
 percentile) or ``+``-joined parts: ``hN`` every height weighted N, ``hipsN`` /
 ``anklesN`` the hips' / the ankles' heights weighted N, ``flP`` the heights' floor at the
 P-th percentile of the lowest foot (``fl30+h2`` is the registered ``"frontal"`` set since
-2026-11-28); and library-side augmentation (:class:`retrieval.library.act_search.Augment`):
+2026-11-28), ``lowN`` an added column, the lower ankle's height above that floor (both feet
+off it: a flight; kind ``"lowest"``), weighted N (``lowN@C``: only what rises above C leg
+lengths, ``max(0, lower ankle - C)``, so a standing foot's jitter reads 0); and library-side augmentation (:class:`retrieval.library.act_search.Augment`):
 ``mirror`` every clip mirrored too, ``xT`` every clip at speed T too (``x0.8``, ``x1.25``),
 ``hops`` every jump's hop cycle tiled into a repeated jump (``hops@D``: cut where the hips
 cross their median less D, a light hop). Per variant the library (``--data``) is indexed with that set (the clips'
@@ -29,7 +31,7 @@ import argparse
 import json
 import time
 from collections import defaultdict
-from dataclasses import replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +41,7 @@ from lab.bench.act_cameras import run_act_cameras_bench
 from lab.bench.act_videos import run_act_videos_bench
 from retrieval.features import FrontalFeatureSet, get_feature_set, leg_length, register_feature_set
 from retrieval.features.frontal import FRONTAL
-from retrieval.features.relational import FLOOR_PERCENTILE, MR17
+from retrieval.features.relational import FLOOR_PERCENTILE, MR17, FeatureSpec
 from retrieval.library import ActSearch, Augment, read_labels
 from retrieval.library.clip import Clip
 from retrieval.motion import canonical_joint_map, load_motion, positions, resample, rest_positions
@@ -47,12 +49,29 @@ from retrieval.motion import canonical_joint_map, load_motion, positions, resamp
 FPS = 30.0
 
 
+@dataclass(frozen=True)
+class ClearedFrontal(FrontalFeatureSet):
+    """The frontal set with its ``"lowest"`` column cleared of its first ``clearance`` leg
+    lengths (``lowN@C``): ``w·max(0, v/w − C)``."""
+
+    clearance: float = 0.0
+
+    def from_positions(self, pos, joint_map, body_size, fps=None, rest=None):  # noqa: ANN001, ANN201
+        out = super().from_positions(pos, joint_map, body_size, fps, rest)
+        for k, s in enumerate(self.specs):
+            if s.kind == "lowest":
+                out[:, k] = s.weight * np.maximum(0.0, out[:, k] / s.weight - self.clearance)
+        return out
+
+
 def variant_set(variant: str) -> tuple[FrontalFeatureSet, Augment]:
     """The frontal feature set a ``VARIANT`` names (module docstring), registered, and its
     augmentation."""
     specs, floor = list(MR17.specs), FLOOR_PERCENTILE
-    mirror, tempos, hops, dip = False, [], False, None
+    mirror, tempos, hops, dip, clearance = False, [], False, None, 0.0
     for part in ([] if variant == "base" else variant.split("+")):
+        if part.startswith("low") and "@" in part:
+            part, clearance = part.split("@")[0], float(part.split("@")[1])
         if part in ("mirror", "hops") or part.startswith("hops@"):
             mirror, hops = mirror or part == "mirror", hops or part.startswith("hops")
             dip = float(part[5:]) if part.startswith("hops@") else dip
@@ -68,11 +87,16 @@ def variant_set(variant: str) -> tuple[FrontalFeatureSet, Augment]:
             tempos.append(value)
         elif key == "fl":
             floor = value
+        elif key == "low":
+            specs.append(FeatureSpec("lower_ankle_height", "lowest", ("left_ankle", "right_ankle"),
+                                     "both feet off the floor: a flight", value))
         elif key in names:
             specs = [replace(s, weight=value) if s.name in names[key] else s for s in specs]
         else:
-            raise SystemExit(f"{variant}: unknown part {part!r} (h, hips, ankles, fl, x, mirror, hops)")
-    fs = register_feature_set(replace(FRONTAL, name=f"frontal_variant_{variant}", specs=tuple(specs),
+            raise SystemExit(f"{variant}: unknown part {part!r} (h, hips, ankles, fl, low, x, mirror, hops)")
+    base = ClearedFrontal(**{f.name: getattr(FRONTAL, f.name) for f in fields(FRONTAL)}, clearance=clearance) \
+        if clearance > 0 else FRONTAL
+    fs = register_feature_set(replace(base, name=f"frontal_variant_{variant}", specs=tuple(specs),
                                       floor_percentile=floor, description=f"variant {variant}"))
     return fs, Augment(mirror, tuple(tempos), hops, dip)
 
