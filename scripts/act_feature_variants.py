@@ -24,6 +24,11 @@ joint positions are read once and kept in memory) and measured, search only, on
 * ``storybeam bench act-cameras`` (every condition, seed 2, 60 trials),
 
 printing one block per variant and, with ``--json``, writing ``DIR/VARIANT.json``.
+
+``--flight-table`` prints instead, per class, the median over clips of the 10th / 50th /
+90th percentile of the lower ankle's height above the 30th-percentile floor (leg lengths)
+in the library's mocap and in the real set's camera joints: how far the flight cue rises
+above the camera's noise.
 """
 from __future__ import annotations
 
@@ -38,13 +43,15 @@ import numpy as np
 
 from lab.bench import act_it_out as rendered
 from lab.bench.act_cameras import run_act_cameras_bench
-from lab.bench.act_videos import run_act_videos_bench
+from lab.bench.act_videos import read_video_labels, run_act_videos_bench, track_clip
 from retrieval.features import FrontalFeatureSet, get_feature_set, leg_length, register_feature_set
 from retrieval.features.frontal import FRONTAL
-from retrieval.features.relational import FLOOR_PERCENTILE, MR17, FeatureSpec
+from retrieval.features.relational import FLOOR_PERCENTILE, MR17, FeatureSpec, clip_floor
 from retrieval.library import ActSearch, Augment, read_labels
 from retrieval.library.clip import Clip
-from retrieval.motion import canonical_joint_map, load_motion, positions, resample, rest_positions
+from retrieval.motion import (
+    canonical_joint_map, landmarks_to_positions, load_motion, positions, resample, rest_positions,
+)
 
 FPS = 30.0
 
@@ -146,9 +153,33 @@ def measure(variant: str, library: list[tuple], args: argparse.Namespace) -> dic
             "cameras": {c["condition"]["name"]: {"accuracy": c["accuracy"], "recall": c["recall"]} for c in cams}}
 
 
+def lower_ankle_percentiles(pos: np.ndarray, jm: dict[str, int], leg: float) -> np.ndarray:
+    """10th / 50th / 90th percentile of the lower ankle above the frontal floor, in leg lengths."""
+    floor = clip_floor(np.stack([pos[:, jm[j], 1] for j in ("left_ankle", "left_toe", "right_ankle", "right_toe")],
+                                axis=1), 0, FRONTAL.floor_percentile)
+    low = np.minimum(pos[:, jm["left_ankle"], 1], pos[:, jm["right_ankle"], 1]) - floor
+    return np.percentile(low, [10, 50, 90]) / leg
+
+
+def flight_table(library: list[tuple], args: argparse.Namespace) -> None:
+    """Print ``--flight-table`` (module docstring)."""
+    per: dict[tuple[str, str], list[np.ndarray]] = defaultdict(list)
+    for r, p, jm, leg, _rest in library:
+        per[("library", r.label)].append(lower_ankle_percentiles(p, jm, leg))
+    for video, label in read_video_labels(args.videos):
+        t = track_clip(video, args.video_cache)
+        pos, jm, leg = landmarks_to_positions(t["world"], t["image_xy"], t["valid"], tuple(t["image_size"]), t["fps"])
+        per[("real", label)].append(lower_ankle_percentiles(pos, jm, leg))
+    for (where, label), rows in sorted(per.items()):
+        a = np.array(rows)
+        print(f"{where:8s} {label:6s} {len(a):3d} clips: lower ankle p10/p50/p90 {np.median(a, axis=0).round(3)}, "
+              f"p90 from {a[:, 2].min():.2f} to {a[:, 2].max():.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("variants", nargs="+")
+    ap.add_argument("variants", nargs="*")
+    ap.add_argument("--flight-table", action="store_true", help="print the lower ankle's height per class")
     ap.add_argument("--json", type=Path, help="write DIR/VARIANT.json")
     ap.add_argument("--videos", type=Path, default=Path("/work/data/act_real"))
     ap.add_argument("--video-cache", type=Path, default=Path("/work/data/act_real_cache"))
@@ -156,6 +187,8 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data/cmu"))
     args = ap.parse_args()
     library = library_positions(args.data)
+    if args.flight_table:
+        flight_table(library, args)
     for v in args.variants:
         r = measure(v, library, args)
         cams = r["cameras"]
