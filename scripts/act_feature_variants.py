@@ -63,7 +63,8 @@ class ClearedFrontal(FrontalFeatureSet):
 
     clearance: float = 0.0
 
-    def from_positions(self, pos, joint_map, body_size, fps=None, rest=None):  # noqa: ANN001, ANN201
+    def from_positions(self, pos: np.ndarray, joint_map: dict[str, int], body_size: float,
+                       fps: float | None = None, rest: np.ndarray | None = None) -> np.ndarray:
         out = super().from_positions(pos, joint_map, body_size, fps, rest)
         for k, s in enumerate(self.specs):
             if s.kind == "lowest":
