@@ -8,7 +8,9 @@ A ``VARIANT`` is ``base`` (the frontal set with MR17's weights, floor at the 2nd
 percentile) or ``+``-joined parts: ``hN`` every height weighted N, ``hipsN`` /
 ``anklesN`` the hips' / the ankles' heights weighted N, ``flP`` the heights' floor at the
 P-th percentile of the lowest foot (``fl30+h2`` is the registered ``"frontal"`` set since
-2026-11-28); and library-side augmentation (:class:`retrieval.library.act_search.Augment`):
+2026-11-28), ``lowN`` an added column, the lower ankle's height above that floor (both feet
+off it: a flight; kind ``"lowest"``), weighted N (``lowN@C``: only what rises above C leg
+lengths, ``max(0, lower ankle - C)``, so a standing foot's jitter reads 0); and library-side augmentation (:class:`retrieval.library.act_search.Augment`):
 ``mirror`` every clip mirrored too, ``xT`` every clip at speed T too (``x0.8``, ``x1.25``),
 ``hops`` every jump's hop cycle tiled into a repeated jump (``hops@D``: cut where the hips
 cross their median less D, a light hop). Per variant the library (``--data``) is indexed with that set (the clips'
@@ -22,6 +24,11 @@ joint positions are read once and kept in memory) and measured, search only, on
 * ``storybeam bench act-cameras`` (every condition, seed 2, 60 trials),
 
 printing one block per variant and, with ``--json``, writing ``DIR/VARIANT.json``.
+
+``--flight-table`` prints instead, per class, the median over clips of the 10th / 50th /
+90th percentile of the lower ankle's height above the 30th-percentile floor (leg lengths)
+in the library's mocap and in the real set's camera joints: how far the flight cue rises
+above the camera's noise.
 """
 from __future__ import annotations
 
@@ -29,30 +36,50 @@ import argparse
 import json
 import time
 from collections import defaultdict
-from dataclasses import replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
 
 from lab.bench import act_it_out as rendered
 from lab.bench.act_cameras import run_act_cameras_bench
-from lab.bench.act_videos import run_act_videos_bench
+from lab.bench.act_videos import read_video_labels, run_act_videos_bench, track_clip
 from retrieval.features import FrontalFeatureSet, get_feature_set, leg_length, register_feature_set
 from retrieval.features.frontal import FRONTAL
-from retrieval.features.relational import FLOOR_PERCENTILE, MR17
+from retrieval.features.relational import FLOOR_PERCENTILE, MR17, FeatureSpec, clip_floor
 from retrieval.library import ActSearch, Augment, read_labels
 from retrieval.library.clip import Clip
-from retrieval.motion import canonical_joint_map, load_motion, positions, resample, rest_positions
+from retrieval.motion import (
+    canonical_joint_map, landmarks_to_positions, load_motion, positions, resample, rest_positions,
+)
 
 FPS = 30.0
+
+
+@dataclass(frozen=True)
+class ClearedFrontal(FrontalFeatureSet):
+    """The frontal set with its ``"lowest"`` column cleared of its first ``clearance`` leg
+    lengths (``lowN@C``): ``w·max(0, v/w − C)``."""
+
+    clearance: float = 0.0
+
+    def from_positions(self, pos: np.ndarray, joint_map: dict[str, int], body_size: float,
+                       fps: float | None = None, rest: np.ndarray | None = None) -> np.ndarray:
+        out = super().from_positions(pos, joint_map, body_size, fps, rest)
+        for k, s in enumerate(self.specs):
+            if s.kind == "lowest":
+                out[:, k] = s.weight * np.maximum(0.0, out[:, k] / s.weight - self.clearance)
+        return out
 
 
 def variant_set(variant: str) -> tuple[FrontalFeatureSet, Augment]:
     """The frontal feature set a ``VARIANT`` names (module docstring), registered, and its
     augmentation."""
     specs, floor = list(MR17.specs), FLOOR_PERCENTILE
-    mirror, tempos, hops, dip = False, [], False, None
+    mirror, tempos, hops, dip, clearance = False, [], False, None, 0.0
     for part in ([] if variant == "base" else variant.split("+")):
+        if part.startswith("low") and "@" in part:
+            part, clearance = part.split("@")[0], float(part.split("@")[1])
         if part in ("mirror", "hops") or part.startswith("hops@"):
             mirror, hops = mirror or part == "mirror", hops or part.startswith("hops")
             dip = float(part[5:]) if part.startswith("hops@") else dip
@@ -68,11 +95,16 @@ def variant_set(variant: str) -> tuple[FrontalFeatureSet, Augment]:
             tempos.append(value)
         elif key == "fl":
             floor = value
+        elif key == "low":
+            specs.append(FeatureSpec("lower_ankle_height", "lowest", ("left_ankle", "right_ankle"),
+                                     "both feet off the floor: a flight", value))
         elif key in names:
             specs = [replace(s, weight=value) if s.name in names[key] else s for s in specs]
         else:
-            raise SystemExit(f"{variant}: unknown part {part!r} (h, hips, ankles, fl, x, mirror, hops)")
-    fs = register_feature_set(replace(FRONTAL, name=f"frontal_variant_{variant}", specs=tuple(specs),
+            raise SystemExit(f"{variant}: unknown part {part!r} (h, hips, ankles, fl, low, x, mirror, hops)")
+    base = ClearedFrontal(**{f.name: getattr(FRONTAL, f.name) for f in fields(FRONTAL)}, clearance=clearance) \
+        if clearance > 0 else FRONTAL
+    fs = register_feature_set(replace(base, name=f"frontal_variant_{variant}", specs=tuple(specs),
                                       floor_percentile=floor, description=f"variant {variant}"))
     return fs, Augment(mirror, tuple(tempos), hops, dip)
 
@@ -122,9 +154,33 @@ def measure(variant: str, library: list[tuple], args: argparse.Namespace) -> dic
             "cameras": {c["condition"]["name"]: {"accuracy": c["accuracy"], "recall": c["recall"]} for c in cams}}
 
 
+def lower_ankle_percentiles(pos: np.ndarray, jm: dict[str, int], leg: float) -> np.ndarray:
+    """10th / 50th / 90th percentile of the lower ankle above the frontal floor, in leg lengths."""
+    floor = clip_floor(np.stack([pos[:, jm[j], 1] for j in ("left_ankle", "left_toe", "right_ankle", "right_toe")],
+                                axis=1), 0, FRONTAL.floor_percentile)
+    low = np.minimum(pos[:, jm["left_ankle"], 1], pos[:, jm["right_ankle"], 1]) - floor
+    return np.percentile(low, [10, 50, 90]) / leg
+
+
+def flight_table(library: list[tuple], args: argparse.Namespace) -> None:
+    """Print ``--flight-table`` (module docstring)."""
+    per: dict[tuple[str, str], list[np.ndarray]] = defaultdict(list)
+    for r, p, jm, leg, _rest in library:
+        per[("library", r.label)].append(lower_ankle_percentiles(p, jm, leg))
+    for video, label in read_video_labels(args.videos):
+        t = track_clip(video, args.video_cache)
+        pos, jm, leg = landmarks_to_positions(t["world"], t["image_xy"], t["valid"], tuple(t["image_size"]), t["fps"])
+        per[("real", label)].append(lower_ankle_percentiles(pos, jm, leg))
+    for (where, label), rows in sorted(per.items()):
+        a = np.array(rows)
+        print(f"{where:8s} {label:6s} {len(a):3d} clips: lower ankle p10/p50/p90 {np.median(a, axis=0).round(3)}, "
+              f"p90 from {a[:, 2].min():.2f} to {a[:, 2].max():.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("variants", nargs="+")
+    ap.add_argument("variants", nargs="*")
+    ap.add_argument("--flight-table", action="store_true", help="print the lower ankle's height per class")
     ap.add_argument("--json", type=Path, help="write DIR/VARIANT.json")
     ap.add_argument("--videos", type=Path, default=Path("/work/data/act_real"))
     ap.add_argument("--video-cache", type=Path, default=Path("/work/data/act_real_cache"))
@@ -132,6 +188,8 @@ def main() -> None:
     ap.add_argument("--data", type=Path, default=Path("../shared/data/cmu"))
     args = ap.parse_args()
     library = library_positions(args.data)
+    if args.flight_table:
+        flight_table(library, args)
     for v in args.variants:
         r = measure(v, library, args)
         cams = r["cameras"]

@@ -92,6 +92,7 @@ class FeatureError(StoryBeamError):
 @dataclass(frozen=True)
 class FeatureSpec:
     """One feature: ``kind`` is "distance" (|a−b|), "height" (a above the clip's floor),
+    "lowest" (the lower of a and b above the clip's floor: both feet off it, a flight),
     "above" (signed vertical offset a.y − b.y), "heading_rate" (the body's turning rate,
     see :func:`heading_rate`; joints are left hip, right hip, left shoulder, right
     shoulder), or "across" / "forward" (the horizontal offset a − b along the body's own
@@ -156,7 +157,7 @@ class FeatureSet:
 
     def joints_used(self) -> set[str]:
         used = {j for s in self.specs for j in s.joints}
-        if any(s.kind == "height" for s in self.specs):
+        if any(s.kind in _FLOOR_KINDS for s in self.specs):
             used.update(_FOOT_JOINTS)
         return used
 
@@ -218,7 +219,7 @@ class FeatureSet:
             if spec.kind == "distance":
                 a, b = spec.joints
                 out[:, k] = np.linalg.norm(p(a) - p(b), axis=1)
-            elif spec.kind == "height":
+            elif spec.kind in _FLOOR_KINDS:
                 if floor is None:
                     if self.floor_window > 0 and (fps is None or not fps > 0):
                         raise FeatureError(f"feature set {self.name!r} takes its floor over "
@@ -226,7 +227,7 @@ class FeatureSet:
                     window = int(round(self.floor_window * fps)) if self.floor_window > 0 else 0
                     floor = clip_floor(np.stack([p(f)[:, 1] for f in self.floor_joints], axis=1),
                                        window, self.floor_percentile)
-                out[:, k] = p(spec.joints[0])[:, 1] - floor
+                out[:, k] = np.min([p(j)[:, 1] for j in spec.joints], axis=0) - floor
             elif spec.kind == "above":
                 a, b = spec.joints
                 out[:, k] = p(a)[:, 1] - p(b)[:, 1]
@@ -414,7 +415,9 @@ MR17 = FeatureSet(
 )
 
 _REGISTRY: dict[str, FeatureSet] = {}
-_KINDS = {"distance": 2, "height": 1, "above": 2, "heading_rate": 4, "across": 6, "forward": 6}
+_KINDS = {"distance": 2, "height": 1, "lowest": 2, "above": 2, "heading_rate": 4, "across": 6, "forward": 6}
+#: Kinds measured above the clip's floor (:func:`clip_floor`).
+_FLOOR_KINDS = ("height", "lowest")
 #: Kinds whose value depends on the frame rate (a rate, or a heading smoothed over seconds).
 _RATE_KINDS = ("heading_rate", "across", "forward")
 

@@ -76,3 +76,22 @@ def test_same_trial_on_acclaim_and_cc_base_skeletons_gives_close_features(cmu_di
     best = min(errs, key=lambda e: e.max())
     spread = fa.std(axis=0)
     assert np.all(best < 0.05 * spread), dict(zip(MR17.names, (best / spread).round(3)))
+
+
+def test_lowest_kind_reads_the_lower_foot_above_the_floor():
+    """"lowest": one foot raised (a kick, a step) keeps it 0; both raised (a flight) lifts it."""
+    fs = register_feature_set(FeatureSet("test_lowest", (
+        FeatureSpec("lower_ankle_height", "lowest", ("left_ankle", "right_ankle")),
+        FeatureSpec("lankle_height", "height", ("left_ankle",)))))
+    joints = ["left_ankle", "right_ankle", "left_toe", "right_toe"]
+    jm = {n: i for i, n in enumerate(joints)}
+    # 10 frames: standing (0-3), left foot kicked 0.5 m (4-6), both feet 0.3 m up (7-9)
+    left = np.array([0, 0, 0, 0, .5, .5, .5, .3, .3, .3])
+    right = np.array([0, 0, 0, 0, 0, 0, 0, .3, .3, .3])
+    pos = np.zeros((10, 4, 3))
+    pos[:, 0, 1], pos[:, 2, 1] = left, left
+    pos[:, 1, 1], pos[:, 3, 1] = right, right
+    f = fs.from_positions(pos, jm, body_size=0.5)
+    assert np.allclose(f[:, 0], np.minimum(left, right) / 0.5)
+    assert np.allclose(f[:, 1], left / 0.5)
+    assert fs.joints_used() >= set(joints)
