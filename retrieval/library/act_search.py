@@ -137,7 +137,9 @@ class Augment:
 
     def key(self) -> str:
         """The settings as a saved index records them (:meth:`ActSearch.load` compares)."""
-        parts = (["mirror"] if self.mirror else []) + [f"x{t:g}" for t in self.tempos] + ([f"hops{'' if self.hop_dip is None else f'@{self.hop_dip:g}'}"] if self.hops else [])
+        parts = (["mirror"] if self.mirror else []) + [f"x{t:g}" for t in self.tempos]
+        if self.hops:
+            parts.append("hops" if self.hop_dip is None else f"hops@{self.hop_dip:g}")
         return "+".join(parts) or "none"
 
 
@@ -216,10 +218,11 @@ def hop_cycle(hips: np.ndarray, fps: float, dip: float | None = None) -> tuple[i
     b = peak
     while b < len(h) - 1 and h[b + 1] <= h[b]:
         b += 1
-    if dip is not None:  # cut higher up, where the hips cross the level
+    if dip is not None:  # cut higher up: the last frame under the level before the peak, the first after it
         level = np.median(h) - dip
-        a = max(a, peak - int(np.argmax(h[a:peak + 1][::-1] < level)) if np.any(h[a:peak + 1] < level) else a)
-        b = min(b, peak + int(np.argmax(h[peak:b + 1] < level)) if np.any(h[peak:b + 1] < level) else b)
+        before, after = np.flatnonzero(h[a:peak + 1] < level), np.flatnonzero(h[peak:b + 1] < level)
+        a = a + int(before[-1]) if before.size else a
+        b = peak + int(after[0]) if after.size else b
     if not HOP_SECONDS[0] * fps <= b - a <= HOP_SECONDS[1] * fps:
         return None
     return a, b
