@@ -186,7 +186,8 @@ def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, 
             motion = load_motion(row.file, row.skeleton) if row.skeleton else load_motion(row.file)
             moved = resample(retarget(motion, target, name=row.trial), write_fps)
             path = save_bvh(moved, Path(tmp) / f"{row.trial}.bvh")
-            back = clip_from_motion(load_motion(path), row.trial, row.label, fps, feature_set)
+            again = load_motion(path)
+            back = clip_from_motion(again, row.trial, row.label, fps, feature_set)
             hits = sb.search(back.features, k=1)
             found_sb += hits[0].index == n
             found = sb.find(back.features, k=1)
@@ -194,7 +195,7 @@ def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, 
             if found[0].index != n:
                 find_misses.append({"trial": row.trial, "found": clips[found[0].index].trial})
             seed_back = back.features if seed_clips is None else clip_from_motion(
-                load_motion(path), row.trial, row.label, fps, "mr17").features
+                again, row.trial, row.label, fps, "mr17").features
             res = seed_fast.search([seed_q.encode(seed_back[:, :17])], k=min(len(clips), 8),
                                    parallel=False)
             found_seed += int(res.indices[0, 0]) == n
@@ -216,12 +217,25 @@ def _misses_line(misses: list[dict], key: str) -> str:
     return shown + (f", ... ({len(misses)} in all)" if len(misses) > 12 else "")
 
 
+def seed_mr17_clips(args, rows, clips, feature_set: str, pose: bool = False, progress=None):
+    """The seed's own features for its methods: ``clips`` again in MR17 on the file's own
+    body (same order), or None when ``feature_set``'s first 17 columns already are that
+    (MR17 itself, or a set on the file's body)."""
+    from retrieval.features import get_feature_set  # deferred: numpy stack only for this command
+    from retrieval.library import load_dataset  # deferred: as above
+
+    if feature_set == "mr17" or get_feature_set(feature_set).body == "source":
+        return None
+    by_trial = {c.trial: c for c in load_dataset(args.data, fps=args.fps, feature_set="mr17", rows=rows,
+                                                 cache=not args.no_cache, pose=pose, progress=progress)}
+    return [by_trial[c.trial] for c in clips]
+
+
 def run_identity(args, rows, clips, feature_set: str) -> int:
     """``--identity`` and/or ``--pose-identity``, with or without ``--skeleton-from``:
     run, print a line each (and the misses), write the JSON."""
     # deferred: numpy/numba stack only for this command
     from retrieval.library import SHORTLIST, load_dataset, pose_feature_set
-    from retrieval.features import get_feature_set  # deferred: as above
     # deferred: the experiment layer, only for this command
     from lab.experiment import other_skeleton_trials, pose_identity, skeleton_identity
 
@@ -229,10 +243,9 @@ def run_identity(args, rows, clips, feature_set: str) -> int:
            "skeleton_from": args.skeleton_from}
     others = other_skeleton_trials(args.skeleton_from) if args.skeleton_from else None
     if args.identity and others is None:
-        seed_clips = None if get_feature_set(feature_set).body == "source" else load_dataset(
-            args.data, fps=args.fps, feature_set="mr17", rows=rows, cache=not args.no_cache)
         ident = identity_check(rows, clips, args.fps, feature_set, args.identity_fps, args.shortlist, args.dims,
-                               progress_bar("identity round trips", "clip", not args.quiet), seed_clips)
+                               progress_bar("identity round trips", "clip", not args.quiet),
+                               seed_mr17_clips(args, rows, clips, feature_set))
         print(f"{ident['clips']} clips written as BVH on another skeleton at {args.identity_fps:g} fps and read back: "
               f"found first: storybeam find {100 * ident['storybeam_find_top1']:.2f} %, "
               f"storybeam class ranking {100 * ident['storybeam_top1']:.2f} %, "
@@ -338,13 +351,11 @@ def run(args) -> int:
         if args.subset:
             raise StoryBeamError("--identity and --pose-identity use the whole folder: drop --subset")
         return run_identity(args, rows, clips, feature_set)
+    # the seed's methods keep the seed's features (MR17 on the file's own body), as the research
     seed_clips = None
-    if feature_set != "mr17" and get_feature_set(feature_set).body != "source" and set(methods) & set(SEED_METHODS):
-        # the seed's methods keep the seed's features (MR17 on the file's own body), as the research
-        by_trial = {c.trial: c for c in load_dataset(
-            args.data, fps=args.fps, feature_set="mr17", cache=not args.no_cache, rows=rows, pose="forbes" in methods,
-            progress=progress_bar("loading the seed's MR17", "clip", not args.quiet))}
-        seed_clips = [by_trial[c.trial] for c in clips]
+    if set(methods) & set(SEED_METHODS):
+        seed_clips = seed_mr17_clips(args, rows, clips, feature_set, "forbes" in methods,
+                                     progress_bar("loading the seed's MR17", "clip", not args.quiet))
     per_split = {}
     for split in splits:
         kw = {"shortlist": args.shortlist} if args.shortlist else {}
