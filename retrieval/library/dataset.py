@@ -22,7 +22,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import os
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -110,13 +110,20 @@ def clip_from_motion(motion: Motion, trial: str, label: str = "", fps: float | N
     return Clip(trial, label, feats, pose_frames(pos, jm, size) if pose else None, float(motion.fps), source)
 
 
+def _plain(fs: FeatureSet) -> bool:
+    """Whether ``fs`` is a plain :class:`FeatureSet` with every setting at its default
+    (its features then depend on its name and specs alone, as MR17's do)."""
+    return type(fs) is FeatureSet and all(
+        getattr(fs, f.name) == f.default for f in fields(FeatureSet)
+        if f.default is not MISSING and f.name != "description")
+
+
 def _cache_key(row: LabelRow, fps: float | None, feature_set: str) -> str:
     parts = [CACHE_VERSION, feature_set, repr(fps)]
     fs = get_feature_set(feature_set)
-    if fs.needs_fps:  # a set with a rate: its weights and smoothing are part of what is cached
-        parts.append(repr(fs.specs) + repr(HEADING_SMOOTH_SECONDS) + fs.normalise + repr(fs.centre)
-                     + (fs.body if fs.body != "source" else ""))
-    elif type(fs) is not FeatureSet or fs.normalise != "legs" or fs.body != "source" or fs.floor_window:  # a subclass (the frontal sets) or another scale: every field
+    if fs.needs_fps:  # a set with a rate: every field and the rate's smoothing are part of what is cached
+        parts.append(repr(fs) + repr(HEADING_SMOOTH_SECONDS))
+    elif not _plain(fs):  # a subclass (the frontal sets) or a setting off its default: every field
         parts.append(repr(fs))
     if fs.body == "canonical":
         parts.append(f"canonical-pose-{CANONICAL_POSE_VERSION}")
