@@ -15,6 +15,9 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 ASSETS = REPO_ROOT / "assets"
 #: the bundled motion library (``labels.csv`` and the clips it lists)
 MOTIONS_DIR = ASSETS / "motions"
+#: its moves from other studios (a labelled folder of its own, listed in the library's
+#: labels.csv too): Act it out searches them beside any ``--data`` folder
+MOVES_DIR = MOTIONS_DIR / "moves"
 #: rest-pose previews of the characters (``storybeam characters`` writes them)
 CHARACTERS_DIR = ASSETS / "characters"
 #: the launcher icon and presplash (``python -m app.ui.make_icon`` writes them)
@@ -30,5 +33,5 @@ BOARDS_DIR = ASSETS / "boards"
 SHARED_DATA = Path(os.environ.get("STORYBEAM_SHARED_DATA", REPO_ROOT.parent / "shared" / "data"))
 SHARED_CMU = SHARED_DATA / "cmu"
 
-__all__ = ["REPO_ROOT", "ASSETS", "MOTIONS_DIR", "CHARACTERS_DIR", "UI_ASSETS", "FONTS_DIR", "FONT_PATH",
+__all__ = ["REPO_ROOT", "ASSETS", "MOTIONS_DIR", "MOVES_DIR", "CHARACTERS_DIR", "UI_ASSETS", "FONTS_DIR", "FONT_PATH",
            "BOARDS_DIR", "SHARED_DATA", "SHARED_CMU"]

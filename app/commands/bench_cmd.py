@@ -11,7 +11,7 @@ import argparse
 from pathlib import Path
 from typing import Callable
 
-from app.commands.output import write_json_report
+from app.commands.output import add_moves_argument, moves_folder, write_json_report
 from app.paths import SHARED_CMU
 from app.progress import progress_bar
 from retrieval.errors import StoryBeamError
@@ -438,6 +438,7 @@ def _add_act_it_out(sub: argparse._SubParsersAction) -> None:
                    help="real footage instead: a folder of clips with labels.csv (file,label); "
                         "the JSON then goes to out/act_it_out_videos.json unless --json names another file")
     p.add_argument("--top", type=_at_least(1), default=3, help="with --videos: top-k accuracy (default 3)")
+    add_moves_argument(p)
 
 
 def _run_act_it_out(args: argparse.Namespace) -> int:
@@ -451,6 +452,7 @@ def _run_act_it_out(args: argparse.Namespace) -> int:
     variants = [v.strip() for v in args.variants.split(",") if v.strip()]
     kw = {"take_seconds": args.seconds} if args.seconds else {}
     kw["extra_limit"] = args.extra_limit
+    kw["moves"] = moves_folder(args.moves)
     result = run_act_it_out_bench(Path(data), args.limit, args.seed, variants, args.cache,
                                   None if args.quiet else progress_bar("bench act-it-out", "take"), **kw)
     return _finish(args, result, format_table(result))
@@ -464,7 +466,8 @@ def _run_act_videos(args: argparse.Namespace, data: Path) -> int:
         args.json_out = Path("out/act_it_out_videos.json")
     plot = args.json_out.with_name(args.json_out.stem + "_confusion.png") if args.json_out else None
     result = run_act_videos_bench(args.videos, data, args.cache, args.top,
-                                  None if args.quiet else progress_bar("bench act-it-out --videos", "clip"), plot)
+                                  None if args.quiet else progress_bar("bench act-it-out --videos", "clip"), plot,
+                                  moves=moves_folder(args.moves))
     return _finish(args, result, format_videos_table(result))
 
 
@@ -483,6 +486,7 @@ def _add_act_cameras(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=2, help="which trials are drawn (default 2)")
     p.add_argument("--conditions", default=None, help="comma-separated conditions (default: all)")
     p.add_argument("--noise-px", type=float, default=0.0, help="Gaussian pixel noise on the image landmarks")
+    add_moves_argument(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -494,7 +498,8 @@ def _run_act_cameras(args: argparse.Namespace) -> int:
         raise StoryBeamError(f"--data {data}: no labels.csv (the shared CMU set, or a labelled folder)")
     conds = [c.strip() for c in args.conditions.split(",") if c.strip()] if args.conditions else list(CONDITIONS)
     result = run_act_cameras_bench(Path(data), args.limit, args.seed, conds, args.noise_px,
-                                   progress=None if args.quiet else progress_bar("bench act-cameras", "take"))
+                                   progress=None if args.quiet else progress_bar("bench act-cameras", "take"),
+                                   moves=moves_folder(args.moves))
     return _finish(args, result, format_table(result))
 
 

@@ -34,10 +34,12 @@ refinement). A pose search needs a labelled folder (a saved index keeps no featu
 :mod:`app.services.act_it_out`): every frame of the video is run through the pose
 estimator (:class:`ar.body.BodyTracker`), the landmarks are searched in the library's
 frontal features (:class:`retrieval.library.ActSearch`, built from ``--data``: a labelled
-folder), and ``--exclude TRIAL,...`` leaves those trials out of the library (to evaluate a
+folder, with the app's moves from other studios, ``assets/motions/moves``, beside it;
+``--moves DIR`` names another such folder, ``--moves none`` searches ``--data`` alone), and
+``--exclude TRIAL,...`` leaves those trials out of the library (to evaluate a
 take of a library clip)::
 
-  {"query", "data", "mode": "video", "results": [{"rank", "trial", "label", "subject",
+  {"query", "data", "moves", "mode": "video", "results": [{"rank", "trial", "label", "subject",
    "distance", "clip_path"}], "detect_rate", "pose_ms_median", "search_ms", "frames",
    "fps", "image_size", "verdict": {"ok", "reason", "seen", "detected", ...}, "clips"}
 
@@ -53,7 +55,7 @@ import argparse
 import time
 from pathlib import Path
 
-from app.commands.output import emit_json_report
+from app.commands.output import add_moves_argument, emit_json_report, moves_folder
 from app.paths import MOTIONS_DIR
 from retrieval.errors import StoryBeamError
 
@@ -72,6 +74,7 @@ def register(subparsers) -> None:
                         "pose estimation on every frame, then the frontal-feature library")
     p.add_argument("--exclude", metavar="TRIAL,...", default="",
                    help="with --video: leave these trials out of the library (evaluation)")
+    add_moves_argument(p)
     p.add_argument("--skeleton", help="ASF skeleton for an AMC query")
     p.add_argument("-k", "--top", type=int, default=5, help="how many clips to report (default 5)")
     p.add_argument("--subsequence", action="store_true",
@@ -215,7 +218,8 @@ def _run_video(args, data: Path) -> int:
     exclude = [t.strip() for t in args.exclude.split(",") if t.strip()]
     from retrieval.library import ActSearch  # deferred: loads the search stack, only to search
 
-    search = ActSearch.build(data)
+    moves = moves_folder(args.moves)
+    search = ActSearch.build(data, moves=moves)
     # a trial's name, not its windows' (10_01@0, 10_01@52, ...): leaving it out leaves all of them out
     unknown = [t for t in exclude if t not in set(search.clip_names)]
     if unknown:
@@ -231,7 +235,8 @@ def _run_video(args, data: Path) -> int:
     hits = flow.results(take, k=args.top, exclude=exclude)
     t1 = time.perf_counter()
     report = {
-        "query": str(path), "data": str(data), "mode": "video", "exclude": exclude,
+        "query": str(path), "data": str(data), "moves": None if moves is None else str(moves), "mode": "video",
+        "exclude": exclude,
         "results": [{"rank": i, **h.as_dict()} for i, h in enumerate(hits, 1)],
         "detect_rate": take.detect_rate, "pose_ms_median": take.pose_ms_median, "search_ms": (t1 - t0) * 1e3,
         "frames": len(take.poses), "fps": take.fps, "image_size": list(take.image_size),

@@ -267,8 +267,9 @@ def evaluate(search: ActSearch, rows: Sequence[LabelRow], cond: Condition, noise
 
 def run_act_cameras_bench(data: Path, limit: int = 60, seed: int = 2, conditions: Sequence[str] = tuple(CONDITIONS),
                           noise_px: float = 0.0, search: ActSearch | None = None,
-                          progress: Callable[[int, int], None] | None = None) -> dict:
-    """Every condition over the same ``limit`` trials (stratified draw of ``seed``)."""
+                          progress: Callable[[int, int], None] | None = None, moves: Path | None = None) -> dict:
+    """Every condition over the same ``limit`` trials (stratified draw of ``seed``, from
+    ``data`` only), searched in ``data`` and ``moves`` (:meth:`ActSearch.build`)."""
     unknown = [c for c in conditions if c not in CONDITIONS]
     if unknown or not conditions:
         raise StoryBeamError(f"unknown condition(s) {', '.join(unknown) or '(none given)'}; "
@@ -276,7 +277,7 @@ def run_act_cameras_bench(data: Path, limit: int = 60, seed: int = 2, conditions
     from lab.bench.act_it_out import choose_trials  # deferred: that module loads the renderer and the tracker
 
     rows = choose_trials(read_labels(data), limit, seed)
-    search = search or ActSearch.build(data, fps=30.0)
+    search = search or ActSearch.build(data, fps=30.0, moves=moves)
     total, done = len(rows) * len(conditions), 0
 
     def tick() -> None:
@@ -286,7 +287,8 @@ def run_act_cameras_bench(data: Path, limit: int = 60, seed: int = 2, conditions
             progress(done, total)
 
     results = [evaluate(search, rows, CONDITIONS[c], noise_px, seed, tick) for c in conditions]
-    return {"data": str(data), "seed": seed, "limit": limit, "noise_px": noise_px, "library_clips": len(search),
+    return {"data": str(data), "moves": None if moves is None else str(moves), "seed": seed, "limit": limit,
+            "noise_px": noise_px, "library_clips": len(search),
             "conditions": results}
 
 

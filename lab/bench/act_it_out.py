@@ -313,10 +313,13 @@ def evaluate_variant(search, rows: Sequence[LabelRow], variant: str, seed: int, 
 def run_act_it_out_bench(data: Path, limit: int = 60, seed: int = 2, variants: Sequence[str] = tuple(VARIANTS),
                          cache_dir: Path | None = Path("out/act_it_out"),
                          progress: Callable[[int, int], None] | None = None,
-                         take_seconds: float = TAKE_SECONDS, extra_limit: int | None = None) -> dict:
+                         take_seconds: float = TAKE_SECONDS, extra_limit: int | None = None,
+                         moves: Path | None = None) -> dict:
     """The whole bench (module docstring): one result per variant, JSON-ready.
     ``extra_limit`` (default ``limit``) trials are drawn for the turned and cluttered
-    variants (a stratified draw of that size with the same seed)."""
+    variants (a stratified draw of that size with the same seed). ``moves``: a labelled
+    folder whose clips join the library (:meth:`ActSearch.build`); takes are drawn from
+    ``data`` only."""
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown or not variants:
         raise StoryBeamError(f"unknown variant(s) {', '.join(unknown) or '(none given)'}; choose from {', '.join(VARIANTS)}")
@@ -331,7 +334,7 @@ def run_act_it_out_bench(data: Path, limit: int = 60, seed: int = 2, variants: S
         if r.subject:
             subjects[r.subject].add(r.trial)
     core = _pin_one_core()
-    search = ActSearch.build(data, fps=FPS)
+    search = ActSearch.build(data, fps=FPS, moves=moves)
     total, done = sum(len(r) for r in per_variant.values()), 0
 
     def tick() -> None:
@@ -342,7 +345,8 @@ def run_act_it_out_bench(data: Path, limit: int = 60, seed: int = 2, variants: S
 
     results = [evaluate_variant(search, per_variant[v], v, seed, cache_dir, subjects, tick, take_seconds)
                for v in variants]
-    return {"data": str(data), "seed": seed, "limit": limit, "extra_limit": extra_limit,
+    return {"data": str(data), "moves": None if moves is None else str(moves),
+            "seed": seed, "limit": limit, "extra_limit": extra_limit,
             "library_clips": len(search), "library_windows": len(search.index), "pinned_core": core,
             "fps": FPS, "image_size": [WIDTH, HEIGHT], "take_seconds": take_seconds, "variants": results}
 

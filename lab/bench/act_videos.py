@@ -225,15 +225,15 @@ def _median(values: Sequence[float]) -> float:
 
 def run_act_videos_bench(videos: Path, data: Path, cache_dir: Path | None = Path("out/act_it_out"), top: int = 3,
                          progress: Callable[[int, int], None] | None = None, plot: Path | None = None,
-                         search: ActSearch | None = None) -> dict:
+                         search: ActSearch | None = None, moves: Path | None = None) -> dict:
     """The whole bench (module docstring); JSON-ready. ``search`` (default: built from
-    ``data``) lets a caller reuse a library."""
+    ``data`` and ``moves``, :meth:`ActSearch.build`) lets a caller reuse a library."""
     if top < 1:
         raise StoryBeamError(f"--top must be at least 1, got {top}")
     rows = read_video_labels(Path(videos))
     cpu = pin_process_to_one_core()
     t0 = time.perf_counter()
-    search = search if search is not None else ActSearch.build(data)
+    search = search if search is not None else ActSearch.build(data, moves=moves)
     build_s = time.perf_counter() - t0
     search.search_features(search.index.clip_features[0], k=1)  # loads the compiled kernels, outside the timings
     code_key = pose_code_key()
@@ -265,7 +265,8 @@ def run_act_videos_bench(videos: Path, data: Path, cache_dir: Path | None = Path
         if progress:
             progress(n, len(rows))
     result = summarise(clips, top)
-    result.update({"videos": str(videos), "data": str(data), "library_clips": len(search),
+    result.update({"videos": str(videos), "data": str(data), "moves": None if moves is None else str(moves),
+                   "library_clips": len(search),
                    "library_windows": len(search.index), "library_build_s": build_s, "pinned_cpu": cpu,
                    "pose_code_key": code_key, "pose_ms_median": _median(pose_ms), "pose_frames": len(pose_ms),
                    "search_ms_median": _median(search_ms), "clips": clips})

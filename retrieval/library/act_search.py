@@ -321,10 +321,16 @@ class ActSearch:
     def build(cls, folder: str | Path, fps: float = 30.0, dims: int = 6,
               progress: Callable[[int, int], None] | None = None, shortlist: int = ACT_SHORTLIST,
               feature_set: str = FEATURE_SET, window_seconds: float = WINDOW_SECONDS,
-              short_seconds: float | None = SHORT_WINDOW_SECONDS, augment: Augment = AUGMENT) -> "ActSearch":
-        """Every clip of a labelled folder (:mod:`retrieval.library.dataset`) at ``fps``."""
-        return cls.from_clips(load_dataset(folder, fps=fps, feature_set=feature_set, progress=progress), dims,
-                              shortlist, feature_set, window_seconds, short_seconds, augment)
+              short_seconds: float | None = SHORT_WINDOW_SECONDS, augment: Augment = AUGMENT,
+              moves: str | Path | None = None) -> "ActSearch":
+        """Every clip of a labelled folder (:mod:`retrieval.library.dataset`) at ``fps``,
+        and those of the labelled folder ``moves`` (the app's moves from other studios,
+        ``assets/motions/moves``) whose trial names ``folder`` does not already hold."""
+        clips = load_dataset(folder, fps=fps, feature_set=feature_set, progress=progress)
+        if moves is not None:
+            held = {c.trial for c in clips}
+            clips += [c for c in load_dataset(moves, fps=fps, feature_set=feature_set) if c.trial not in held]
+        return cls.from_clips(clips, dims, shortlist, feature_set, window_seconds, short_seconds, augment)
 
     def save(self, folder: str | Path) -> Path:
         folder = Path(folder)
