@@ -10,6 +10,7 @@ from retrieval.dtw import dtw_features
 from retrieval.errors import StoryBeamError
 from retrieval.features import motion_features
 from retrieval.library import SHORTLIST, SUMMARY, MotionIndex, StoryBeamSearcher, clip_summary
+from retrieval.library.storybeam_search import nearest_not_in
 from tests.support.synthetic_motion import make_motion, make_skeleton
 
 
@@ -109,3 +110,16 @@ def test_the_index_keeps_its_summary_across_save_and_load(tmp_path):
     assert back.summary == SUMMARY
     for f in lib[:3]:
         assert [m.trial for m in back.query(f, k=3)] == [m.trial for m in idx.query(f, k=3)]
+
+
+def test_nearest_not_in_is_a_stable_argsort_without_the_taken():
+    """The partition-based pick equals the whole stable argsort, ties included (integer
+    gaps make many), whatever is taken and however many are asked for."""
+    rng = np.random.default_rng(1)
+    for t in range(3000):
+        n = int(rng.integers(1, 30))
+        gap = rng.integers(0, 5, size=n).astype(float) if t % 2 else rng.random(n)
+        taken = set(rng.choice(n, size=int(rng.integers(0, n + 1)), replace=False).tolist())
+        k = int(rng.integers(0, 6))
+        want = [int(i) for i in np.argsort(gap, kind="stable") if int(i) not in taken][:k]
+        assert nearest_not_in(gap, taken, k) == want
