@@ -136,12 +136,20 @@ def convert_move(src: Path, out: Path, trial: str, keep: str = "", start: float 
         motion = keep_joints(motion, keep)
     if level:
         motion = level_floor(motion)
+    return write_clip(motion, out, trial, fps, max_seconds, decimals, start)
+
+
+def write_clip(motion: Motion, out: Path, trial: str, fps: float, max_seconds: float, decimals: int,
+               start: float = 0.0) -> Motion:
+    """A clip as the library keeps it: resampled to ``fps`` (a glitched first frame
+    dropped, :func:`drop_leading_outlier`), from ``start`` seconds for at most
+    ``max_seconds``, in centimetres, named ``trial``, written as BVH with ``decimals``
+    decimals at ``out``. Returns the written motion."""
     motion = drop_leading_outlier(resample(motion, fps))
     first = int(round(start * fps))
     if not 0 <= first < motion.n_frames:
-        raise DatasetError(f"{src}: start {start:g} s is outside the clip ({motion.seconds:.2f} s)")
-    motion = motion.slice(first, motion.n_frames)
-    motion = to_centimetres(motion.slice(0, min(motion.n_frames, int(round(max_seconds * fps)))))
+        raise DatasetError(f"{trial}: start {start:g} s is outside the clip ({motion.seconds:.2f} s)")
+    motion = to_centimetres(motion.slice(first, min(motion.n_frames, first + int(round(max_seconds * fps)))))
     motion.name = trial
     out.parent.mkdir(parents=True, exist_ok=True)
     save_bvh(motion, out, decimals=decimals)
@@ -190,12 +198,9 @@ def build(data_dir: Path, out_dir: Path, fps: float = 30.0, max_seconds: float =
         if src["label"] != label:
             raise DatasetError(f"{trial}: labelled {src['label']!r} in the shared data, {label!r} here")
         skeleton = data_dir / src["skeleton"] if src["skeleton"] else None
-        motion = drop_leading_outlier(resample(load_motion(data_dir / src["file"], skeleton), fps))
-        keep = min(motion.n_frames, int(round(max_seconds * fps)))
-        motion = to_centimetres(motion.slice(0, keep))
-        motion.name = trial
         rel = f"bvh/{trial}.bvh"
-        save_bvh(motion, out_dir / rel, decimals=decimals)
+        motion = write_clip(load_motion(data_dir / src["file"], skeleton), out_dir / rel, trial, fps, max_seconds,
+                            decimals)
         out_rows.append({
             "trial": trial,
             "label": label,

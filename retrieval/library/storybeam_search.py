@@ -21,8 +21,9 @@ turning rate, :mod:`retrieval.features.storybeam_set`):
    clip's summary says how much each feature *varies* (a waving hand's distances swing,
    a raised one's hold) and survives a change of tempo and timing. It costs one sort of
    the query's columns and one (2d)-vector distance per library clip; the shortlist keeps
-   its size, and the search costs 4–10 % more (the clips the summary brings are ones the
-   early abandoning cannot cut short; docs/notebook/results.md).
+   its size, and the search costs about 10 % more on bandai2 leaving one style out, less
+   elsewhere (the clips the summary brings are ones the early abandoning cannot cut short;
+   docs/notebook/results.md).
 2. **Re-rank.** Each shortlisted clip's distance is then exact DTW with Euclidean frame
    cost on the float features (:func:`~retrieval.dtw.dtw_features`, normalised by
    ``len(q) + len(r)``) — the same distance as the exact-DTW baseline on the same
