@@ -32,7 +32,9 @@ bench does not perform (their middle 3.5 s as the query, own trial left out, 1-N
 whole clips 0.910, windows of 3.5 s 0.945 (dance 0.62 → 0.81), 4 s 0.938, 5 s 0.931.
 
 The search is StoryBeam's own method (:class:`~retrieval.library.storybeam_search.StoryBeamSearcher`):
-2-bit codes shortlist the windows, exact float DTW on the frontal features ranks them;
+2-bit codes shortlist the windows, with a few places (:data:`ACT_SUMMARY`) for the windows
+nearest by their summary (each feature's mean and spread), and exact float DTW on the
+frontal features ranks them;
 ``exclude`` leaves named trials out (the query's own trial, or all of its subject's, for
 evaluation) by dropping their windows from the shortlist before ranking, so the answer
 is what a library without them would give, up to the quantiser (fitted once, on the
@@ -66,6 +68,17 @@ FEATURE_SET = "frontal"
 #: 0.883, kid 0.550; 64 → 0.917, 0.550; 128 → 0.917, 0.533 (1-NN, trial left out);
 #: search 3.4 / 4.9 / 7.7 ms median on one (shared) core.
 ACT_SHORTLIST = 64
+#: Of the :data:`ACT_SHORTLIST` windows, how many come from the clip-summary ranking
+#: (:func:`~retrieval.library.storybeam_search.clip_summary`, each feature's mean and
+#: spread over the window) instead of the code search: the 3-D index's answer to a style
+#: it has never seen (issue 31), and a camera take is such a style. The 2-bit codes of a
+#: camera take are shifted frame by frame by the estimator's noise, and the code search
+#: then drops windows that exact DTW ranks first. Measured on the real development set
+#: (``storybeam bench act-it-out --videos``): 0 → 38 of 47, 8 → 39 (a skipping-rope jump
+#: whose nearest window by exact DTW over the whole library, a CMU jump, the codes had
+#: not shortlisted); 16 and 32 gave the same 39. Rendered guard and act-cameras: see
+#: docs/notebook/act-it-out.md, 2026-11-28, sixth round.
+ACT_SUMMARY = 8
 #: Length of a library window (seconds): a take's length (see the module docstring).
 WINDOW_SECONDS = 3.5
 #: Windows ranked by exact DTW per clip answered (a clip's windows overlap and may
@@ -265,7 +278,7 @@ class ActSearch:
 
     def __init__(self, index: MotionIndex, names: Sequence[str], starts: Sequence[int], subjects: Sequence[str],
                  paths: Sequence[str], shortlist: int = ACT_SHORTLIST, short: "ActSearch | None" = None,
-                 augment: str = "none"):
+                 augment: str = "none", summary: int = ACT_SUMMARY):
         fset = get_feature_set(index.feature_set)
         if not isinstance(fset, FrontalFeatureSet) or index.clip_features is None:
             raise StoryBeamError(f"an act search needs a storybeam index of frontal features ({FEATURE_SET!r}), got "
@@ -282,8 +295,10 @@ class ActSearch:
         for i, n in enumerate(self.names):
             self._entries.setdefault(n, []).append(i)
         self.shortlist = int(shortlist)
+        #: Of the shortlist, the windows the clip-summary ranking brings (:data:`ACT_SUMMARY`).
+        self.summary = min(int(summary), self.shortlist)
         self.searcher = StoryBeamSearcher(index.quantizer, index.codes, index.clip_features, self.shortlist,
-                                          index.band, index.backend)
+                                          index.band, index.backend, summary=self.summary)
         self.feature_set = fset
         if short is not None and (short.index.feature_set != index.feature_set or short.clip_names != self.clip_names):
             raise StoryBeamError("act search: the short-window index must hold the same clips and features")
@@ -337,7 +352,7 @@ class ActSearch:
         self.index.save(folder)
         (folder / ACT_JSON).write_text(json.dumps({"names": self.names, "starts": self.starts,
                                                    "subjects": self.subjects, "paths": self.paths,
-                                                   "shortlist": self.shortlist,
+                                                   "shortlist": self.shortlist, "summary": self.summary,
                                                    "relative": list(self.feature_set.relative),
                                                    "features": feature_key(self.feature_set),
                                                    "augment": self.augment}, indent=1))
@@ -356,6 +371,7 @@ class ActSearch:
             meta = json.loads(path.read_text())
             names, starts = list(meta["names"]), [int(s) for s in meta["starts"]]
             subjects, paths, shortlist = list(meta["subjects"]), list(meta["paths"]), int(meta["shortlist"])
+            summary = int(meta.get("summary", ACT_SUMMARY))  # a folder saved before the summary places: today's
             relative, features = tuple(meta.get("relative", ())), meta.get("features")
             built = str(meta.get("augment", "none"))
         except FileNotFoundError:
@@ -367,7 +383,7 @@ class ActSearch:
                                    f"{augment.key()!r}: rebuild it")
         short = cls.load(folder / SHORT_FOLDER, augment) if (folder / SHORT_FOLDER / ACT_JSON).is_file() else None
         try:
-            search = cls(index, names, starts, subjects, paths, shortlist, short, built)
+            search = cls(index, names, starts, subjects, paths, shortlist, short, built, summary)
         except StoryBeamError as exc:
             raise IndexFormatError(f"{folder}: {exc}") from None
         if relative != search.feature_set.relative:
@@ -502,6 +518,6 @@ def positions_leg_length(pos: np.ndarray, joint_map: Mapping[str, int]) -> float
     return size
 
 
-__all__ = ["ACT_SHORTLIST", "AUGMENT", "Augment", "augmented_clips", "hop_cycle", "mirror_permutation", "time_scale", "WINDOW_SECONDS", "RANK_FACTOR", "SHORT_TAKE_SECONDS", "SHORT_WINDOW_SECONDS", "ActSearch",
+__all__ = ["ACT_SHORTLIST", "ACT_SUMMARY", "AUGMENT", "Augment", "augmented_clips", "hop_cycle", "mirror_permutation", "time_scale", "WINDOW_SECONDS", "RANK_FACTOR", "SHORT_TAKE_SECONDS", "SHORT_WINDOW_SECONDS", "ActSearch",
            "FEATURE_SET", "feature_key",
            "positions_leg_length", "resample_positions", "windows"]

@@ -13,8 +13,8 @@ import pytest
 from retrieval.dtw import dtw_features
 from retrieval.errors import IndexFormatError, StoryBeamError
 from retrieval.features import leg_length
-from retrieval.library import ActSearch, Match, clip_from_motion
-from retrieval.library.act_search import SHORT_TAKE_SECONDS, SHORT_WINDOW_SECONDS, feature_key
+from retrieval.library import ActSearch, Match, clip_from_motion, clip_summary
+from retrieval.library.act_search import ACT_SUMMARY, SHORT_TAKE_SECONDS, SHORT_WINDOW_SECONDS, feature_key
 from retrieval.motion import canonical_joint_map, positions
 from retrieval.motion.landmarks import LandmarkError
 from tests.retrieval.test_frontal_landmarks import fake_landmarks
@@ -266,3 +266,33 @@ def test_the_tablet_path_answers_as_the_compiled_one_in_one_sweep(monkeypatch):
         got = search.search_positions(*args, **kw)
         assert [(h.trial, h.distance, h.start_s) for h in got] == [(h.trial, h.distance, h.start_s) for h in want]
         assert len(got) == k and len(sweeps) == 1
+
+
+def test_the_summary_places_bring_the_windows_nearest_by_summary(library, tmp_path):
+    """Of the shortlist, :data:`ACT_SUMMARY` places go to the windows nearest by their
+    summary (mean and spread of each feature) that the codes did not bring, never to an
+    excluded trial's; the setting is kept by save and load. With a shortlist smaller than
+    the library, those windows are re-ranked although the code search left them out."""
+    search, motions = library
+    assert search.summary == ACT_SUMMARY > 0 and search.searcher.summary == ACT_SUMMARY
+    ix = search.index
+    narrow = ActSearch(ix, search.names, search.starts, search.subjects, search.paths, shortlist=4,
+                       augment=search.augment, summary=2)
+    codes_only = ActSearch(ix, search.names, search.starts, search.subjects, search.paths, shortlist=4,
+                           augment=search.augment, summary=0)
+    m, _, _ = motions[3]
+    jm = canonical_joint_map(m.skeleton)
+    q = search.feature_set.relative_to_segment(
+        search.position_features(positions(m), 30.0, jm, leg_length(m.skeleton, jm)))
+    drop = set(search._entries[m.name])
+    got = narrow.searcher.shortlist_of(q, 1, exclude=drop)
+    by_codes = [i for i, cd in got if cd is not None]
+    by_summary = [i for i, cd in got if cd is None]
+    assert len(by_codes) >= 2 and len(by_summary) == 2  # the codes ask for one more per excluded window
+    assert not (set(by_codes) | set(by_summary)) & drop
+    gap = np.linalg.norm(narrow.searcher.summaries - clip_summary(q), axis=1)
+    free = [i for i in np.argsort(gap, kind="stable") if i not in drop and i not in by_codes]
+    assert by_summary == free[:2]
+    assert all(cd is not None for _, cd in codes_only.searcher.shortlist_of(q, 1, exclude=drop))
+    again = ActSearch.load(narrow.save(tmp_path / "act"))
+    assert again.summary == 2 and again.searcher.summary == 2
