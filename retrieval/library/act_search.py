@@ -297,8 +297,12 @@ class ActSearch:
         self.shortlist = int(shortlist)
         #: Of the shortlist, the windows the clip-summary ranking brings (:data:`ACT_SUMMARY`).
         self.summary = min(int(summary), self.shortlist)
-        self.searcher = StoryBeamSearcher(index.quantizer, index.codes, index.clip_features, self.shortlist,
-                                          index.band, index.backend, summary=self.summary)
+        own = index.storybeam_searcher  # the index's own, when it was built with these settings
+        if own is not None and (own.shortlist, own.summary) == (self.shortlist, self.summary):
+            self.searcher = own
+        else:
+            self.searcher = StoryBeamSearcher(index.quantizer, index.codes, index.clip_features, self.shortlist,
+                                              index.band, index.backend, summary=self.summary)
         self.feature_set = fset
         if short is not None and (short.index.feature_set != index.feature_set or short.clip_names != self.clip_names):
             raise StoryBeamError("act search: the short-window index must hold the same clips and features")
@@ -326,7 +330,8 @@ class ActSearch:
         if isinstance(fset, FrontalFeatureSet) and fset.relative:  # per window, as a take is per take
             entries = [(replace(w, features=fset.relative_to_segment(w.features).astype(w.features.dtype)), n, s)
                        for w, n, s in entries]
-        index = MotionIndex.from_clips([w for w, _, _ in entries], dims, feature_set=feature_set, method="storybeam")
+        index = MotionIndex.from_clips([w for w, _, _ in entries], dims, feature_set=feature_set, method="storybeam",
+                                       shortlist=shortlist, summary=min(ACT_SUMMARY, shortlist))
         short = None if short_seconds is None else cls.from_clips(clips, dims, shortlist, feature_set, short_seconds,
                                                                   None, augment)
         return cls(index, [n for _, n, _ in entries], [s for _, _, s in entries], [w.subject for w, _, _ in entries],

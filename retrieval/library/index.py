@@ -115,11 +115,17 @@ class MotionIndex:
         self._subsets: dict[tuple[int, ...], FastSearcher] = {}  # fast searchers over subsets (see among)
         self._position = {t: i for i, t in enumerate(self.trials)}
 
+    @property
+    def storybeam_searcher(self) -> StoryBeamSearcher | None:
+        """The storybeam method's searcher over this index (its ``shortlist`` and
+        ``summary``); None for the quantized method."""
+        return self._storybeam
+
     # ------------------------------------------------------------------ building
     @classmethod
     def from_clips(cls, clips: Sequence[Clip], dims: int = 6, band: int | None = None,
                    feature_set: str = "mr17", backend: str = "auto", method: str = "quantized",
-                   shortlist: int = SHORTLIST) -> "MotionIndex":
+                   shortlist: int = SHORTLIST, summary: int = SUMMARY) -> "MotionIndex":
         if not clips:
             raise StoryBeamError("cannot build an index from no clips")
         fps = {round(c.fps, 6) for c in clips}
@@ -129,7 +135,7 @@ class MotionIndex:
         codes = [quantizer.encode(c.features) for c in clips]
         return cls(quantizer, codes, [c.trial for c in clips], [c.label for c in clips], clips[0].fps,
                    feature_set, band, backend, method, [c.features for c in clips] if method == "storybeam" else None,
-                   shortlist)
+                   shortlist, summary)
 
     @classmethod
     def build(cls, folder: str | Path, dims: int = 6, fps: float = 30.0, band: int | None = None,

@@ -275,6 +275,7 @@ def test_the_summary_places_bring_the_windows_nearest_by_summary(library, tmp_pa
     the library, those windows are re-ranked although the code search left them out."""
     search, motions = library
     assert search.summary == ACT_SUMMARY > 0 and search.searcher.summary == ACT_SUMMARY
+    assert search.searcher is search.index.storybeam_searcher  # built once, with the index
     ix = search.index
     narrow = ActSearch(ix, search.names, search.starts, search.subjects, search.paths, shortlist=4,
                        augment=search.augment, summary=2)
@@ -296,3 +297,5 @@ def test_the_summary_places_bring_the_windows_nearest_by_summary(library, tmp_pa
     assert all(cd is not None for _, cd in codes_only.searcher.shortlist_of(q, 1, exclude=drop))
     again = ActSearch.load(narrow.save(tmp_path / "act"))
     assert again.summary == 2 and again.searcher.summary == 2
+    loaded = ActSearch.load(search.save(tmp_path / "full"))
+    assert loaded.searcher is loaded.index.storybeam_searcher and loaded.searcher.summary == ACT_SUMMARY
