@@ -17,6 +17,7 @@ KERNEL_MODULES = (
     "dtw/block_corner.py", "dtw/kernels.py", "dtw/range_bound.py", "dtw/rerank.py", "dtw/rowscan.py",
     "dtw/runlength.py", "dtw/subsequence.py",
     "search/bounds.py", "search/cascade.py", "search/order.py", "search/packed.py", "search/segment_bound.py",
+    "search/summary.py",
 )
 
 

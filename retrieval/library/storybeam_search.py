@@ -19,11 +19,12 @@ turning rate, :mod:`retrieval.features.storybeam_set`):
    all 4 shortlisted clips were raise-ups for 8 of the 21 left-hand waves, which exact
    DTW over the whole library answers right: 84.3 % against 90.5 %; now 90.0 %). A
    clip's summary says how much each feature *varies* (a waving hand's distances swing,
-   a raised one's hold) and survives a change of tempo and timing. It costs one sort of
-   the query's columns and one (2d)-vector distance per library clip; the shortlist keeps
-   its size, and the search costs about 10 % more on bandai2 leaving one style out, less
-   elsewhere (the clips the summary brings are ones the early abandoning cannot cut short;
-   docs/notebook/results.md).
+   a raised one's hold) and survives a change of tempo and timing. It costs the query's
+   summary and one (2d)-vector distance per library clip, in one compiled call
+   (:mod:`retrieval.search.summary`, the same numbers as numpy's bit for bit); the
+   shortlist keeps its size. The re-ranking costs a little more (the clips the summary
+   brings are ones the early abandoning cannot cut short): in all about 5–9 % more than
+   the code shortlist alone on bandai2 leaving one style out (docs/notebook/results.md).
 2. **Re-rank.** Each shortlisted clip's distance is then exact DTW with Euclidean frame
    cost on the float features (:func:`~retrieval.dtw.dtw_features`, normalised by
    ``len(q) + len(r)``) — the same distance as the exact-DTW baseline on the same
@@ -81,7 +82,7 @@ from retrieval.dtw import (
     resolve_backend,
     rows_kernel_ready,
 )
-from retrieval.search import FastSearcher, Hit
+from retrieval.search import FastSearcher, Hit, clip_summary, summary_nearest
 
 #: Default number of code-nearest clips re-ranked by exact float DTW (the ablation in
 #: docs/notebook/results.md: accuracy against speed).
@@ -109,44 +110,6 @@ def centre(features: np.ndarray) -> np.ndarray:
     shape over time is kept."""
     f = np.asarray(features, dtype=np.float64)
     return f - f.mean(axis=0, keepdims=True)
-
-
-#: The percentiles whose difference is a feature's spread in :func:`clip_summary`.
-SPREAD_PERCENTILES = (10.0, 90.0)
-
-
-def clip_summary(features: np.ndarray) -> np.ndarray:
-    """(2d,) summary of (frames, d) features: each column's mean over the frames, then
-    each column's spread, the range between its :data:`SPREAD_PERCENTILES` (float64). A
-    percentile range rather than the standard deviation so that a few glitched or
-    transitional frames move it little; measured against the standard deviation and the
-    mean absolute deviation (docs/notebook/results.md, issue 31), it held best when the
-    style or the performer is new."""
-    f = np.asarray(features, dtype=np.float64)
-    if f.ndim != 2 or f.shape[0] == 0:
-        raise StoryBeamError(f"clip summary: features must be (frames > 0, d), got {f.shape}")
-    # np.percentile's linear interpolation, on one sort of the columns (several times
-    # faster than np.percentile itself, which the search pays once per query)
-    ranked = np.sort(f, axis=0)
-    at = [p / 100.0 * (len(ranked) - 1) for p in SPREAD_PERCENTILES]
-    lo, hi = (ranked[int(x)] + (x - int(x)) * (ranked[min(int(x) + 1, len(ranked) - 1)] - ranked[int(x)]) for x in at)
-    return np.concatenate([f.mean(axis=0), hi - lo])
-
-
-def nearest_not_in(gap: np.ndarray, taken: Collection[int], n: int) -> list[int]:
-    """The ``n`` positions of smallest ``gap`` not in ``taken``, nearest first, ties by
-    position: what a stable argsort of the whole array would give, from a partition and a
-    sort of the few candidates (per query, the whole argsort and its Python loop cost as
-    much as a third of the summary shortlist)."""
-    m = min(len(gap), n + len(taken))
-    if m <= 0:
-        return []
-    if m < len(gap):
-        cand = np.flatnonzero(gap <= np.partition(gap, m - 1)[m - 1])  # every tie at the cut, in position order
-    else:
-        cand = np.arange(len(gap))
-    order = cand[np.argsort(gap[cand], kind="stable")].tolist()
-    return [i for i in order if i not in taken][:n]
 
 
 def _rank_key(hit: Hit) -> tuple[float, float, int]:
@@ -242,8 +205,8 @@ class StoryBeamSearcher:
                    if i >= 0 and int(i) not in drop]
         if self.summaries is not None:
             taken = {i for i, _ in out} | {int(i) for i in drop}
-            gap = np.linalg.norm(self.summaries - clip_summary(query), axis=1)
-            out += [(i, None) for i in nearest_not_in(gap, taken, self.summary)]
+            out += [(i, None) for i in summary_nearest(self.summaries, query, taken, self.summary,
+                                                       compiled=resolve_backend(self.backend) == "numba")]
         return out
 
     def identity_searcher(self) -> "StoryBeamSearcher":

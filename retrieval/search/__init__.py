@@ -1,6 +1,7 @@
 """Exact nearest-clip search over code sequences: the fast k-NN search
 (:class:`FastSearcher`: the API in :mod:`~retrieval.search.fast`, its compiled kernels and
-their numpy twins in modules of their own), the pruned subsequence search
+their numpy twins in modules of their own), the summary shortlist over float features
+(:mod:`~retrieval.search.summary`), the pruned subsequence search
 (:class:`SubsequenceSearcher`) and the brute-force references they must equal
 (:mod:`~retrieval.search.reference`)."""
 from __future__ import annotations
@@ -14,6 +15,7 @@ from retrieval.search.reference import (
     brute_force_subsequence,
 )
 from retrieval.search.subsequence import SubsequenceSearcher
+from retrieval.search.summary import clip_summary, summary_nearest
 
 __all__ = [
     "MODES",
@@ -25,6 +27,8 @@ __all__ = [
     "warm_up",
     "Hit",
     "SubsequenceSearcher",
+    "clip_summary",
+    "summary_nearest",
     "brute_force",
     "brute_force_runs",
     "brute_force_subsequence",

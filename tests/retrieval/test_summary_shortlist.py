@@ -10,7 +10,8 @@ from retrieval.dtw import dtw_features
 from retrieval.errors import StoryBeamError
 from retrieval.features import motion_features
 from retrieval.library import SHORTLIST, SUMMARY, MotionIndex, StoryBeamSearcher, clip_summary
-from retrieval.library.storybeam_search import nearest_not_in
+from retrieval.dtw.jit import HAVE_NUMBA
+from retrieval.search.summary import nearest_not_in, summary_gaps, summary_nearest
 from tests.support.synthetic_motion import make_motion, make_skeleton
 
 
@@ -123,3 +124,35 @@ def test_nearest_not_in_is_a_stable_argsort_without_the_taken():
         k = int(rng.integers(0, 6))
         want = [int(i) for i in np.argsort(gap, kind="stable") if int(i) not in taken][:k]
         assert nearest_not_in(gap, taken, k) == want
+
+
+@pytest.mark.skipif(not HAVE_NUMBA, reason="the compiled summary shortlist needs numba")
+def test_the_compiled_summary_shortlist_equals_numpys_bit_for_bit():
+    """One compiled call gives numpy's summary distances exactly (mean, interpolated
+    percentiles, pairwise-summed norm) and so the same pick, ties by position included:
+    summary widths below, at and past numpy's 8-way unrolling, odd frame counts, a single
+    frame, repeated values and libraries with identical summaries."""
+    rng = np.random.default_rng(5)
+    for t in range(400):
+        d = int(rng.choice([1, 3, 4, 7, 9, 18, 31, 64]))
+        frames = int(rng.integers(1, 250)) if t % 5 else int(rng.integers(1, 4))
+        q = rng.normal(size=(frames, d)) * rng.uniform(0.01, 100)
+        if t % 3 == 0:
+            q = np.round(q)  # repeated values in every column
+        m = int(rng.integers(1, 60))
+        summaries = np.stack([clip_summary(rng.normal(size=(int(rng.integers(1, 40)), d))) for _ in range(m)])
+        if t % 4 == 0:
+            summaries[m // 2:] = summaries[0]  # ties by distance
+        gap = np.linalg.norm(summaries - clip_summary(q), axis=1)
+        assert np.array_equal(summary_gaps(summaries, q), gap)
+        taken = set(rng.choice(m, size=int(rng.integers(0, m)), replace=False).tolist())
+        n = int(rng.integers(1, 6))
+        want = nearest_not_in(gap, taken, n)
+        assert summary_nearest(summaries, q, taken, n) == want
+        assert summary_nearest(summaries, q, taken, n, compiled=False) == want
+
+
+def test_the_summary_shortlist_names_a_query_of_the_wrong_width():
+    summaries = np.stack([clip_summary(np.ones((5, 3)))])
+    with pytest.raises(StoryBeamError, match="summary shortlist"):
+        summary_nearest(summaries, np.ones((5, 4)), set(), 1)
