@@ -25,9 +25,11 @@ half window; a clip shorter than 1.25 windows is one entry. A take shorter than
 :data:`SHORT_WINDOW_SECONDS` windows (:attr:`ActSearch.short`), the same rule — a window
 the take's length — for the short takes that break it against 3.5 s windows: synthetic
 2 s takes (``storybeam bench act-cameras``, "short") 0.883 → 0.967 (kicks 5 → 8 of 9),
-the real development set 30 → 31 of 47 (a 2.4 s drop kick found). A clip's distance is its
-nearest window's, and each clip is answered once (:attr:`Match.start_s` / ``end_s``
-say which part matched). Measured on the true joints of the 145 CMU trials the reported
+the real development set 30 → 31 of 47 (a 2.4 s drop kick found). A take longer than :data:`LONG_TAKE_WINDOWS`
+windows (a whole video passed to ``storybeam search --video``) is cut the same way, into
+windows every half window, and their answers are combined by class
+(:meth:`ActSearch._search_long`). A clip's distance is its nearest window's, and each
+clip is answered once (:attr:`Match.start_s` / ``end_s`` say which part matched). Measured on the true joints of the 145 CMU trials the reported
 bench does not perform (their middle 3.5 s as the query, own trial left out, 1-NN):
 whole clips 0.910, windows of 3.5 s 0.945 (dance 0.62 → 0.81), 4 s 0.938, 5 s 0.931.
 
@@ -89,6 +91,14 @@ RANK_FACTOR = 3
 #: answers (see the module docstring).
 SHORT_WINDOW_SECONDS = 2.0
 SHORT_TAKE_SECONDS = 2.75
+#: A take longer than this many library windows is searched window by window (see
+#: :meth:`ActSearch.search_features`), a window the library's length every half window.
+LONG_TAKE_WINDOWS = 1.25
+#: How deep each of a long take's windows is read when their answers are combined.
+LONG_DEPTH = 5
+#: At most this many of a long take's windows are searched (evenly spread over the take):
+#: bounds the time of a minute-long video.
+LONG_MAX_WINDOWS = 16
 #: Subfolder of a saved act search holding its short-window index.
 SHORT_FOLDER = "short"
 ACT_JSON = "act.json"
@@ -278,7 +288,7 @@ class ActSearch:
 
     def __init__(self, index: MotionIndex, names: Sequence[str], starts: Sequence[int], subjects: Sequence[str],
                  paths: Sequence[str], shortlist: int = ACT_SHORTLIST, short: "ActSearch | None" = None,
-                 augment: str = "none", summary: int = ACT_SUMMARY):
+                 augment: str = "none", summary: int = ACT_SUMMARY, window_seconds: float = WINDOW_SECONDS):
         fset = get_feature_set(index.feature_set)
         if not isinstance(fset, FrontalFeatureSet) or index.clip_features is None:
             raise StoryBeamError(f"an act search needs a storybeam index of frontal features ({FEATURE_SET!r}), got "
@@ -309,6 +319,9 @@ class ActSearch:
         self.short = short
         #: :meth:`Augment.key` of the augmentation the index was built with.
         self.augment = str(augment)
+        #: Length of the library's windows (seconds; 0: whole clips), which sets when a
+        #: take counts as long.
+        self.window_seconds = float(window_seconds)
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -335,7 +348,8 @@ class ActSearch:
         short = None if short_seconds is None else cls.from_clips(clips, dims, shortlist, feature_set, short_seconds,
                                                                   None, augment)
         return cls(index, [n for _, n, _ in entries], [s for _, _, s in entries], [w.subject for w, _, _ in entries],
-                   [w.source for w, _, _ in entries], shortlist, short, augment.key())
+                   [w.source for w, _, _ in entries], shortlist, short, augment.key(),
+                   window_seconds=window_seconds)
 
     @classmethod
     def build(cls, folder: str | Path, fps: float = 30.0, dims: int = 6,
@@ -360,7 +374,8 @@ class ActSearch:
                                                    "shortlist": self.shortlist, "summary": self.summary,
                                                    "relative": list(self.feature_set.relative),
                                                    "features": feature_key(self.feature_set),
-                                                   "augment": self.augment}, indent=1))
+                                                   "augment": self.augment,
+                                                   "window_seconds": self.window_seconds}, indent=1))
         if self.short is not None:
             self.short.save(folder / SHORT_FOLDER)
         return folder
@@ -379,6 +394,9 @@ class ActSearch:
             summary = int(meta.get("summary", ACT_SUMMARY))  # a folder saved before the summary places: today's
             relative, features = tuple(meta.get("relative", ())), meta.get("features")
             built = str(meta.get("augment", "none"))
+            # a folder saved before the field: its windows are those of its folder's role
+            window_s = float(meta.get("window_seconds", SHORT_WINDOW_SECONDS if folder.name == SHORT_FOLDER
+                                      else WINDOW_SECONDS))
         except FileNotFoundError:
             raise IndexFormatError(f"{path}: not found (not an act search folder)") from None
         except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
@@ -388,7 +406,7 @@ class ActSearch:
                                    f"{augment.key()!r}: rebuild it")
         short = cls.load(folder / SHORT_FOLDER, augment) if (folder / SHORT_FOLDER / ACT_JSON).is_file() else None
         try:
-            search = cls(index, names, starts, subjects, paths, shortlist, short, built, summary)
+            search = cls(index, names, starts, subjects, paths, shortlist, short, built, summary, window_s)
         except StoryBeamError as exc:
             raise IndexFormatError(f"{folder}: {exc}") from None
         if relative != search.feature_set.relative:
@@ -435,16 +453,87 @@ class ActSearch:
 
     def search_features(self, features: np.ndarray, k: int = 5, exclude: Collection[str] = ()) -> list[Match]:
         """The ``k`` nearest clips to (frames, 17) frontal features, nearest first, the
-        trials named in ``exclude`` left out."""
+        trials named in ``exclude`` left out.
+
+        The take is matched as the library is cut: a take shorter than
+        :data:`SHORT_TAKE_SECONDS` against the 2 s windows (:attr:`short`), one up to
+        :data:`LONG_TAKE_WINDOWS` windows long whole, and a longer one (a video of a
+        minute, say) as windows of the library's length every half window, at most
+        :data:`LONG_MAX_WINDOWS` of them (:meth:`_search_long`)."""
         if k < 1:
             raise StoryBeamError(f"k must be at least 1, got {k}")
-        if self.short is not None and len(features) < SHORT_TAKE_SECONDS * self.fps:
-            return self.short.search_features(features, k, exclude)  # a short take: take-long windows
-        # the library's float32 precision, as the index keeps its clips
-        q = np.ascontiguousarray(np.asarray(features, dtype=np.float32), dtype=np.float64)
+        q = np.asarray(features)
         width = self.feature_set.dim
         if q.ndim != 2 or q.shape[1] != width or len(q) == 0 or not np.all(np.isfinite(q)):
             raise StoryBeamError(f"query features must be finite (frames, {width}), got shape {q.shape}")
+        if self.short is not None and len(q) < SHORT_TAKE_SECONDS * self.fps:
+            return self.short._search_whole(q, k, exclude)  # a short take: take-long windows
+        w = int(round(self.window_seconds * self.fps))
+        if w > 1 and len(q) > LONG_TAKE_WINDOWS * w:
+            return self._search_long(q, w, k, exclude)
+        return self._search_whole(q, k, exclude)
+
+    def _search_long(self, features: np.ndarray, w: int, k: int, exclude: Collection[str]) -> list[Match]:
+        """A long take, window by window: its windows of ``w`` frames (every half window,
+        the last one ending with the take; at most :data:`LONG_MAX_WINDOWS`, evenly
+        spread) are each searched whole for their :data:`LONG_DEPTH` nearest clips, and
+        the answers are combined **by class**: a class scores, in each window, the rank
+        of its first clip there (:data:`LONG_DEPTH` when it has none) and the class with
+        the smallest sum over the windows wins (ties: the smaller sum of those clips'
+        distances). The answer opens with the winning class's best clip; the other clips
+        follow by their own rank sum, then their summed distances (a window a clip is
+        absent from counts :data:`LONG_DEPTH` and its last clip's distance). Each clip's
+        ``distance``, ``start_s`` and ``end_s`` are those of the window that matched it
+        best.
+
+        Why not the whole take: DTW must then warp a minute of movement onto 3.5 s of
+        library. The development set's clips tiled two and three times lost 4 and 6 of
+        47 searched whole; by windows combined so, 3 and 4 (docs/notebook/act-it-out.md,
+        seventh round). Combined by class rather than by nearest window or by vote, which
+        measured worse: one window that resembles another class does not decide."""
+        n = len(features)
+        starts = list(range(0, n - w + 1, max(1, w // 2)))
+        if starts[-1] != n - w:
+            starts.append(n - w)
+        if len(starts) > LONG_MAX_WINDOWS:
+            starts = [starts[int(round(i))] for i in np.linspace(0, len(starts) - 1, LONG_MAX_WINDOWS)]
+        depth = max(k, LONG_DEPTH)
+        answers = [self._search_whole(features[s:s + w], depth, exclude) for s in starts]
+        answers = [a for a in answers if a]
+        if not answers:
+            return []
+        best: dict[str, Match] = {}
+        class_rank: dict[str, float] = {}
+        class_dist: dict[str, float] = {}
+        clip_rank: dict[str, float] = {}
+        clip_dist: dict[str, float] = {}
+        labels = {m.label for a in answers for m in a}
+        for a in answers:
+            for m in a:
+                if m.trial not in best or m.distance < best[m.trial].distance:
+                    best[m.trial] = m
+        for a in answers:
+            where = {m.trial: (i, m.distance) for i, m in enumerate(a)}
+            first = {}
+            for i, m in enumerate(a):
+                first.setdefault(m.label, (i, m.distance))
+            for c in labels:
+                i, d = first.get(c, (depth, a[-1].distance))
+                class_rank[c] = class_rank.get(c, 0.0) + i
+                class_dist[c] = class_dist.get(c, 0.0) + d
+            for t in best:
+                i, d = where.get(t, (depth, a[-1].distance))
+                clip_rank[t] = clip_rank.get(t, 0.0) + i
+                clip_dist[t] = clip_dist.get(t, 0.0) + d
+        winner = min(labels, key=lambda c: (class_rank[c], class_dist[c], c))
+        order = sorted(best, key=lambda t: (clip_rank[t], clip_dist[t], t))
+        first = next(t for t in order if best[t].label == winner)
+        return [best[first]] + [best[t] for t in order if t != first][:k - 1]
+
+    def _search_whole(self, features: np.ndarray, k: int, exclude: Collection[str]) -> list[Match]:
+        """The ``k`` nearest clips to the whole (frames, 17) take (checked by the caller)."""
+        # the library's float32 precision, as the index keeps its clips
+        q = np.ascontiguousarray(np.asarray(features, dtype=np.float32), dtype=np.float64)
         # the relative columns per the query, as the library's per window (idempotent)
         q = np.ascontiguousarray(self.feature_set.relative_to_segment(q).astype(np.float32), dtype=np.float64)
         drop = {i for t in exclude for i in self._entries.get(t, ())}

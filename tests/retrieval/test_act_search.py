@@ -299,3 +299,116 @@ def test_the_summary_places_bring_the_windows_nearest_by_summary(library, tmp_pa
     assert again.summary == 2 and again.searcher.summary == 2
     loaded = ActSearch.load(search.save(tmp_path / "full"))
     assert loaded.searcher is loaded.index.storybeam_searcher and loaded.searcher.summary == ACT_SUMMARY
+
+
+@pytest.fixture(scope="module")
+def long_library():
+    """Two kinds, two 10 s clips each: a take of several windows can be cut from any."""
+    sk = make_skeleton()
+    clips, motions = [], []
+    for label, kw in KINDS.items():
+        for j in range(2):
+            m = make_motion(sk, frames=300, period=0.9 + 0.2 * j, **kw)
+            m.name = f"{label}{j}"
+            motions.append(m)
+            clips.append(clip_from_motion(m, m.name, label, 30.0, "frontal"))
+    return ActSearch.from_clips(clips, dims=4), motions, sk
+
+
+def _features(search, motion, sk, frames):
+    jm = canonical_joint_map(sk)
+    return search.position_features(positions(motion)[frames], 30.0, jm, leg_length(sk, jm))
+
+
+def test_a_long_take_is_searched_window_by_window_and_combined_by_class(long_library, monkeypatch):
+    """A take longer than LONG_TAKE_WINDOWS windows: each library-long window (every half
+    window, the last ending with the take) is searched whole, and the classes' ranks are
+    summed over the windows. Checked against that rule computed here from the windows'
+    own answers; a take of calm windows and one wild one answers calm although its wild
+    window matches a library window exactly, nearer than any calm window matches."""
+    import retrieval.library.act_search as act  # deferred: test-local, for the constants
+
+    search, motions, sk = long_library
+    w = int(round(act.WINDOW_SECONDS * 30))
+    calm = _features(search, motions[0], sk, slice(0, 280))
+    calm = calm + np.random.default_rng(3).normal(0.0, 0.05, calm.shape)  # another performer's calm
+    wild = _features(search, motions[3], sk, slice(52, 52 + w))  # one of the library's own windows
+    take = np.concatenate([calm[:3 * w // 2 + w // 2], wild])  # 8 s: calm, then one window of wild
+    assert len(take) > act.LONG_TAKE_WINDOWS * w
+
+    seen = []
+    whole = search._search_whole
+    monkeypatch.setattr(search, "_search_whole", lambda f, k, ex: seen.append(len(f)) or whole(f, k, ex))
+    hits = search.search_features(take, k=3)
+    assert seen and set(seen) == {w}  # only library-long windows, never the whole take
+    starts = list(range(0, len(take) - w + 1, w // 2))
+    starts += [] if starts[-1] == len(take) - w else [len(take) - w]
+    assert len(seen) == len(starts)
+
+    answers = [whole(take[s:s + w], act.LONG_DEPTH, ()) for s in starts]
+    score = {}
+    for a in answers:
+        for c in KINDS:
+            score[c] = score.get(c, 0) + next((i for i, m in enumerate(a) if m.label == c), act.LONG_DEPTH)
+    assert hits[0].label == min(score, key=score.get) == "calm"
+    assert min((m for a in answers for m in a), key=lambda m: m.distance).label == "wild"  # the nearest window disagrees
+    assert len({h.trial for h in hits}) == len(hits) == 3  # each clip once
+    best = {}  # each clip's best window
+    for m in (m for a in answers for m in a):
+        best[m.trial] = m if m.trial not in best or m.distance < best[m.trial].distance else best[m.trial]
+    for h in hits:
+        assert h.distance == best[h.trial].distance and h.end_s - h.start_s == pytest.approx(act.WINDOW_SECONDS)
+    rank = {}  # then every other clip by its own rank sum over the windows (ties: summed distances)
+    for a in answers:
+        where = {m.trial: (i, m.distance) for i, m in enumerate(a)}
+        for t in best:
+            i, d = where.get(t, (act.LONG_DEPTH, a[-1].distance))
+            rank[t] = (rank.get(t, (0, 0.0))[0] + i, rank.get(t, (0, 0.0))[1] + d)
+    rest = sorted((t for t in best if t != hits[0].trial), key=lambda t: rank[t])
+    assert [h.trial for h in hits[1:]] == rest[:2]
+    assert hits[0].trial == min((t for t in best if best[t].label == "calm"), key=lambda t: rank[t])
+
+
+def test_a_long_take_keeps_exclude_and_caps_its_windows(long_library, monkeypatch):
+    import retrieval.library.act_search as act  # deferred: test-local, for the constants
+
+    search, motions, sk = long_library
+    take = _features(search, motions[1], sk, slice(0, 300))
+    hits = search.search_features(take, k=4, exclude=[motions[1].name])
+    assert motions[1].name not in {h.trial for h in hits} and len(hits) == 3
+    assert search.search_features(take, k=1)[0].trial == motions[1].name
+    monkeypatch.setattr(act, "LONG_MAX_WINDOWS", 3)
+    seen = []
+    whole = search._search_whole
+    monkeypatch.setattr(search, "_search_whole", lambda f, k, ex: seen.append(len(f)) or whole(f, k, ex))
+    search.search_features(np.concatenate([take] * 4), k=1)  # 40 s: 21 windows, 3 searched
+    assert len(seen) == 3
+
+
+def test_a_take_up_to_a_window_and_a_quarter_is_searched_whole(long_library, monkeypatch):
+    import retrieval.library.act_search as act  # deferred: test-local, for the constants
+
+    search, motions, sk = long_library
+    w = int(round(act.WINDOW_SECONDS * 30))
+    take = _features(search, motions[2], sk, slice(10, 10 + int(act.LONG_TAKE_WINDOWS * w)))
+    seen = []
+    whole = search._search_whole
+    monkeypatch.setattr(search, "_search_whole", lambda f, k, ex: seen.append(len(f)) or whole(f, k, ex))
+    search.search_features(take, k=2)
+    assert seen == [len(take)]
+
+
+def test_the_window_length_is_saved_with_the_search(long_library, tmp_path):
+    search, motions, sk = long_library
+    assert search.window_seconds == 3.5 and search.short.window_seconds == SHORT_WINDOW_SECONDS
+    folder = search.save(tmp_path / "act")
+    again = ActSearch.load(folder)
+    assert again.window_seconds == 3.5 and again.short.window_seconds == SHORT_WINDOW_SECONDS
+    take = _features(search, motions[0], sk, slice(0, 300))
+    assert [h.as_dict() for h in again.search_features(take, k=3)] == [h.as_dict() for h in search.search_features(take, k=3)]
+    for path in (folder / "act.json", folder / "short" / "act.json"):  # saved before the field: the role's length
+        meta = json.loads(path.read_text())
+        del meta["window_seconds"]
+        path.write_text(json.dumps(meta))
+    older = ActSearch.load(folder)
+    assert older.window_seconds == 3.5 and older.short.window_seconds == SHORT_WINDOW_SECONDS

@@ -1,5 +1,5 @@
 """Throwaway: query features clamped to the library's per-feature range (percentiles)."""
-import sys, numpy as np, collections
+import numpy as np, collections
 from pathlib import Path
 from lab.bench.act_videos import read_video_labels, track_clip, pose_code_key
 from retrieval.library import ActSearch
