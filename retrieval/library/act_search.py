@@ -25,12 +25,13 @@ half window; a clip shorter than 1.25 windows is one entry. A take shorter than
 :data:`SHORT_WINDOW_SECONDS` windows (:attr:`ActSearch.short`), the same rule — a window
 the take's length — for the short takes that break it against 3.5 s windows: synthetic
 2 s takes (``storybeam bench act-cameras``, "short") 0.883 → 0.967 (kicks 5 → 8 of 9),
-the real development set 30 → 31 of 47 (a 2.4 s drop kick found). A take longer than :data:`LONG_TAKE_WINDOWS`
-windows (a whole video passed to ``storybeam search --video``) is cut the same way, into
-windows every half window, and their answers are combined by class
-(:meth:`ActSearch._search_long`). A clip's distance is its nearest window's, and each
-clip is answered once (:attr:`Match.start_s` / ``end_s`` say which part matched). Measured on the true joints of the 145 CMU trials the reported
-bench does not perform (their middle 3.5 s as the query, own trial left out, 1-NN):
+the real development set 30 → 31 of 47 (a 2.4 s drop kick found). A take longer than
+:data:`LONG_TAKE_WINDOWS` (1.5) windows (a whole video passed to ``storybeam search
+--video``) is cut the same way, into windows every half window, and their answers are
+combined by class (:meth:`ActSearch._search_long`). A clip's distance is its nearest
+window's, and each clip is answered once (:attr:`Match.start_s` / ``end_s`` say which
+part matched). Measured on the true joints of the 145 CMU trials the reported bench does
+not perform (their middle 3.5 s as the query, own trial left out, 1-NN):
 whole clips 0.910, windows of 3.5 s 0.945 (dance 0.62 → 0.81), 4 s 0.938, 5 s 0.931.
 
 The search is StoryBeam's own method (:class:`~retrieval.library.storybeam_search.StoryBeamSearcher`):
@@ -93,7 +94,7 @@ SHORT_WINDOW_SECONDS = 2.0
 SHORT_TAKE_SECONDS = 2.75
 #: A take longer than this many library windows is searched window by window (see
 #: :meth:`ActSearch.search_features`), a window the library's length every half window.
-LONG_TAKE_WINDOWS = 1.25
+LONG_TAKE_WINDOWS = 1.5
 #: How deep each of a long take's windows is read when their answers are combined.
 LONG_DEPTH = 5
 #: At most this many of a long take's windows are searched (evenly spread over the take):
@@ -488,9 +489,12 @@ class ActSearch:
 
         Why not the whole take: DTW must then warp a minute of movement onto 3.5 s of
         library. The development set's clips tiled two and three times lost 4 and 6 of
-        47 searched whole; by windows combined so, 3 and 4 (docs/notebook/act-it-out.md,
+        47 searched whole; by windows combined so, 2 and 4 (docs/notebook/act-it-out.md,
         seventh round). Combined by class rather than by nearest window or by vote, which
-        measured worse: one window that resembles another class does not decide."""
+        measured worse: one window that resembles another class does not decide. From
+        1.5 windows on, not 1.25 (the library's own rule): a 4.4 s take cut into two
+        3.5 s windows that nearly overlap gained nothing and lost clips on the smaller
+        libraries."""
         n = len(features)
         starts = list(range(0, n - w + 1, max(1, w // 2)))
         if starts[-1] != n - w:

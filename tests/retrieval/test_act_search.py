@@ -385,7 +385,7 @@ def test_a_long_take_keeps_exclude_and_caps_its_windows(long_library, monkeypatc
     assert len(seen) == 3
 
 
-def test_a_take_up_to_a_window_and_a_quarter_is_searched_whole(long_library, monkeypatch):
+def test_a_take_up_to_the_long_take_limit_is_searched_whole(long_library, monkeypatch):
     import retrieval.library.act_search as act  # deferred: test-local, for the constants
 
     search, motions, sk = long_library
