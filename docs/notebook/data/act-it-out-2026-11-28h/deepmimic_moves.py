@@ -1,5 +1,5 @@
 """Throwaway: DeepMimic humanoid3d motions -> BVH (our Motion model) for a feasibility bench."""
-import json, subprocess, sys, numpy as np, shutil, csv
+import json, subprocess, sys, numpy as np
 from pathlib import Path
 sys.path.insert(0, '/work/main')
 from retrieval.motion import Joint, Skeleton, Motion
@@ -26,7 +26,6 @@ def load(text, name):
     d = json.loads(text); F = np.array(d['Frames'], float)
     joints = [Joint(n, p, np.array(o, float), (['Xposition','Yposition','Zposition'] if k == 'root' else []) + ['Zrotation','Yrotation','Xrotation'], 'ZYX') for n, p, o, k in J]
     tips = {'head': (0, 0.1, 0), 'right_wrist': (0, -0.08, 0), 'left_wrist': (0, -0.08, 0), 'right_toe': (0.05, 0, 0), 'left_toe': (0.05, 0, 0)}
-    base = len(joints)
     ends = [Joint(n + '_tip', [j.name for j in joints].index(n), np.array(o, float), [], 'ZYX') for n, o in tips.items()]
     joints = joints + ends
     sk = Skeleton(joints, metres_per_unit=1.0, up_axis='y', name='deepmimic-humanoid3d')
