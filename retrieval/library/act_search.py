@@ -72,7 +72,7 @@ FEATURE_SET = "frontal"
 #: search 3.4 / 4.9 / 7.7 ms median on one (shared) core.
 ACT_SHORTLIST = 64
 #: Of the :data:`ACT_SHORTLIST` windows, how many come from the clip-summary ranking
-#: (:func:`~retrieval.library.storybeam_search.clip_summary`, each feature's mean and
+#: (:func:`~retrieval.search.summary.clip_summary`, each feature's mean and
 #: spread over the window) instead of the code search: the 3-D index's answer to a style
 #: it has never seen (issue 31), and a camera take is such a style. The 2-bit codes of a
 #: camera take are shifted frame by frame by the estimator's noise, and the code search
@@ -518,11 +518,11 @@ class ActSearch:
                     best[m.trial] = m
         for a in answers:
             where = {m.trial: (i, m.distance) for i, m in enumerate(a)}
-            first = {}
+            first_of: dict[str, tuple[int, float]] = {}  # each class's first clip in this window
             for i, m in enumerate(a):
-                first.setdefault(m.label, (i, m.distance))
+                first_of.setdefault(m.label, (i, m.distance))
             for c in labels:
-                i, d = first.get(c, (depth, a[-1].distance))
+                i, d = first_of.get(c, (depth, a[-1].distance))
                 class_rank[c] = class_rank.get(c, 0.0) + i
                 class_dist[c] = class_dist.get(c, 0.0) + d
             for t in best:
@@ -531,8 +531,8 @@ class ActSearch:
                 clip_dist[t] = clip_dist.get(t, 0.0) + d
         winner = min(labels, key=lambda c: (class_rank[c], class_dist[c], c))
         order = sorted(best, key=lambda t: (clip_rank[t], clip_dist[t], t))
-        first = next(t for t in order if best[t].label == winner)
-        return [best[first]] + [best[t] for t in order if t != first][:k - 1]
+        lead = next(t for t in order if best[t].label == winner)
+        return [best[lead]] + [best[t] for t in order if t != lead][:k - 1]
 
     def _search_whole(self, features: np.ndarray, k: int, exclude: Collection[str]) -> list[Match]:
         """The ``k`` nearest clips to the whole (frames, 17) take (checked by the caller)."""
