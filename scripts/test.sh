@@ -3,7 +3,7 @@
 #   bash scripts/test.sh           the full suite (the README's test command; CI runs it)
 #   bash scripts/test.sh --fast    the fast lane: pytest -m "not slow", the unit tests of every
 #                                  package without the app in a subprocess, campaigns, bench
-#                                  runs or the shared data (under 2 minutes on 2 cores)
+#                                  runs or the shared data (70 s of tests on 2 cores; the full suite 8 min)
 # Other arguments go to pytest, e.g. `bash scripts/test.sh --fast -k dtw`.
 # The numba kernels come from the cache setup.sh has just warmed (tests/conftest.py reads it).
 set -euo pipefail
@@ -18,4 +18,10 @@ export SDL_VIDEODRIVER=${SDL_VIDEODRIVER:-offscreen}
 export KIVY_NO_ARGS=1 KIVY_NO_CONSOLELOG=1
 export KIVY_HOME=${KIVY_HOME:-$PWD/.kivy}
 export MPLBACKEND=Agg
-exec .venv/bin/python -m pytest -q --durations=15 ${args[@]+"${args[@]}"}
+# One pytest worker per CPU, at most 4 (each loads numpy, OpenCV and Kivy; the app tests start
+# their own child processes); STORYBEAM_TEST_WORKERS overrides, 0 runs in this process.
+# --dist loadscope keeps a module's tests on one worker, so a module's app fixture starts once.
+workers=${STORYBEAM_TEST_WORKERS:-$(nproc 2>/dev/null || echo 1)}
+[ "$workers" -gt 4 ] && [ -z "${STORYBEAM_TEST_WORKERS:-}" ] && workers=4
+[ "$workers" -lt 2 ] && workers=0
+exec .venv/bin/python -m pytest -q --durations=15 -n "$workers" --dist loadscope ${args[@]+"${args[@]}"}

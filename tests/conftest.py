@@ -39,6 +39,21 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.slow)
 
 
+@pytest.fixture(autouse=True)
+def _restore_cpu_affinity():
+    """Give the process back every CPU it had when a test pinned it to one (the benches pin
+    themselves to one core, :func:`lab.bench.act_videos.pin_process_to_one_core`): under
+    ``pytest -n`` (scripts/test.sh) a pinned worker would otherwise run every later test
+    on that core, beside the other worker."""
+    if not hasattr(os, "sched_getaffinity"):
+        yield
+        return
+    cpus = os.sched_getaffinity(0)
+    yield
+    if os.sched_getaffinity(0) != cpus:
+        os.sched_setaffinity(0, cpus)
+
+
 @pytest.fixture(scope="session")
 def cmu_dir() -> Path:
     """The shared CMU folder (``../shared/data/cmu``); skips the test when absent. Every
