@@ -22,6 +22,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import os
+import tempfile
 from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 from typing import Callable, Sequence
@@ -160,15 +161,33 @@ def load_row(row: LabelRow, fps: float | None = None, feature_set: str = "mr17",
     if clip.n_frames < 2:
         raise DatasetError(f"trial {row.trial} ({row.file}): fewer than 2 frames")
     if cache_file is not None:
-        try:
-            cache_file.parent.mkdir(parents=True, exist_ok=True)
-            tmp = cache_file.with_suffix(".tmp.npz")
-            np.savez(tmp, features=clip.features, pose=clip.pose if clip.pose is not None else np.zeros(0),
-                     fps=clip.fps)
-            os.replace(tmp, cache_file)
-        except OSError:
-            pass  # caching is an optimisation only
+        _write_cache(cache_file, clip)
     return clip
+
+
+def _write_cache(cache_file: Path, clip: Clip) -> None:
+    """Save ``clip``'s features to ``cache_file`` through a temporary file of its own in
+    the same folder, renamed into place: two processes or threads filling the same entry
+    at once (the app's background load beside a command, parallel test workers) each
+    write their own file and the last rename wins whole, never a mix of the two. Caching
+    is an optimisation only: any OS error leaves no entry and no temporary file."""
+    tmp = None
+    try:
+        cache_file.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{cache_file.stem}.", suffix=".tmp", dir=cache_file.parent)
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, features=clip.features, pose=clip.pose if clip.pose is not None else np.zeros(0),
+                     fps=clip.fps)
+        os.replace(tmp, cache_file)
+        tmp = None
+    except OSError:
+        pass
+    finally:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
 
 
 def load_dataset(folder: str | Path, fps: float | None = None, feature_set: str = "mr17",
