@@ -170,7 +170,10 @@ def _write_cache(cache_file: Path, clip: Clip) -> None:
     the same folder, renamed into place: two processes or threads filling the same entry
     at once (the app's background load beside a command, parallel test workers) each
     write their own file and the last rename wins whole, never a mix of the two. Caching
-    is an optimisation only: any OS error leaves no entry and no temporary file."""
+    is an optimisation only: any OS error leaves no entry and no temporary file. Not
+    :func:`retrieval.durable.durable_file`: an entry lost to a power cut is rebuilt, so
+    its two fsyncs per entry (and its scan of the folder for stale temporaries, which
+    holds every cached clip) would only slow the first load of a library."""
     tmp = None
     try:
         cache_file.parent.mkdir(parents=True, exist_ok=True)
