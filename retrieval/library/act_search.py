@@ -507,29 +507,13 @@ class ActSearch:
         if not answers:
             return []
         best: dict[str, Match] = {}
-        class_rank: dict[str, float] = {}
-        class_dist: dict[str, float] = {}
-        clip_rank: dict[str, float] = {}
-        clip_dist: dict[str, float] = {}
-        labels = {m.label for a in answers for m in a}
         for a in answers:
             for m in a:
                 if m.trial not in best or m.distance < best[m.trial].distance:
                     best[m.trial] = m
-        for a in answers:
-            where = {m.trial: (i, m.distance) for i, m in enumerate(a)}
-            first_of: dict[str, tuple[int, float]] = {}  # each class's first clip in this window
-            for i, m in enumerate(a):
-                first_of.setdefault(m.label, (i, m.distance))
-            for c in labels:
-                i, d = first_of.get(c, (depth, a[-1].distance))
-                class_rank[c] = class_rank.get(c, 0.0) + i
-                class_dist[c] = class_dist.get(c, 0.0) + d
-            for t in best:
-                i, d = where.get(t, (depth, a[-1].distance))
-                clip_rank[t] = clip_rank.get(t, 0.0) + i
-                clip_dist[t] = clip_dist.get(t, 0.0) + d
-        winner = min(labels, key=lambda c: (class_rank[c], class_dist[c], c))
+        class_rank, class_dist = _rank_sums(answers, lambda m: m.label, depth)
+        clip_rank, clip_dist = _rank_sums(answers, lambda m: m.trial, depth)
+        winner = min(class_rank, key=lambda c: (class_rank[c], class_dist[c], c))
         order = sorted(best, key=lambda t: (clip_rank[t], clip_dist[t], t))
         lead = next(t for t in order if best[t].label == winner)
         return [best[lead]] + [best[t] for t in order if t != lead][:k - 1]
@@ -591,6 +575,26 @@ class ActSearch:
         if body_size is None:
             body_size = positions_leg_length(pos, jm)
         return self.search_features(self.position_features(pos, fps, jm, body_size), k, exclude)
+
+
+def _rank_sums(answers: Sequence[Sequence[Match]], key: Callable[[Match], str],
+               depth: int) -> tuple[dict[str, float], dict[str, float]]:
+    """For each name ``key`` gives a match (its class, or its clip) in any of ``answers``
+    (one nearest-first list per window of a long take): the sum over the windows of the
+    rank of its first match in that window and the sum of that match's distance; a window
+    without one counts ``depth`` and its last match's distance
+    (:meth:`ActSearch._search_long`)."""
+    names = {key(m) for a in answers for m in a}
+    ranks, dists = dict.fromkeys(names, 0.0), dict.fromkeys(names, 0.0)
+    for a in answers:
+        first: dict[str, tuple[int, float]] = {}
+        for i, m in enumerate(a):
+            first.setdefault(key(m), (i, m.distance))
+        for name in names:
+            i, d = first.get(name, (depth, a[-1].distance))
+            ranks[name] += i
+            dists[name] += d
+    return ranks, dists
 
 
 def feature_key(feature_set: FrontalFeatureSet) -> str:
