@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ from retrieval.motion import canonical_joint_map
 from retrieval.motion.formats import detect_tpose, load_bvh, save_bvh
 from retrieval.errors import MotionFormatError
 from retrieval.motion import global_transforms, positions, rest_positions
-from retrieval.motion import Motion
+from retrieval.motion import Motion, Skeleton
 from retrieval.motion.formats import clear_skeleton_cache, load_motion, load_skeleton
 
 ACCLAIM_M = 0.0254 / 0.45  # metres per unit of CMU's ASF files (":units length 0.45")
@@ -321,6 +322,33 @@ def test_bvh_mixed_layout_round_trip(tmp_path):
     # Z up in the file means the head is high on world Y.
     cmap = canonical_joint_map(m.skeleton)
     assert (p[:, cmap["head"], 1] > p[:, cmap["left_ankle"], 1] + 0.5).all()
+
+
+def _breadth_first(m: Motion) -> Motion:
+    """The same motion with its joints stored breadth first: every parent still comes
+    before its children, but a hip may come before a shoulder's subtree ends."""
+    sk = m.skeleton
+    order, k = [0], 0
+    while k < len(order):
+        order += [i for i, j in enumerate(sk.joints) if j.parent == order[k]]
+        k += 1
+    new_of = {old: new for new, old in enumerate(order)}
+    joints = [replace(sk.joints[o], parent=-1 if sk.joints[o].parent < 0 else new_of[sk.joints[o].parent])
+              for o in order]
+    return Motion(Skeleton(joints, sk.metres_per_unit, sk.up_axis, sk.name), m.rotations[:, order],
+                  m.root_translation, m.fps, m.name,
+                  None if m.joint_translations is None else m.joint_translations[:, order])
+
+
+def test_bvh_writes_a_skeleton_stored_out_of_file_order(tmp_path):
+    # The file lists joints depth first; a converted rig (DeepMimic's: hips before
+    # shoulders) need not be stored so. Each column must still follow its joint.
+    m = _breadth_first(load_bvh(_write(tmp_path, "mixed.bvh", _random_bvh_text()), drop_tpose=False))
+    assert m.skeleton.names != load_bvh(tmp_path / "mixed.bvh", drop_tpose=False).skeleton.names
+    back = load_bvh(save_bvh(m, tmp_path / "out.bvh"), drop_tpose=False)
+    p, q = positions(m), positions(back)
+    q = q[:, [back.skeleton.index(n) for n in m.skeleton.names]]
+    assert np.abs(p - q).max() < 1e-6 * np.ptp(p[..., 1], axis=1).max()
 
 
 def test_bvh_explicit_units_and_axis_override(tmp_path):

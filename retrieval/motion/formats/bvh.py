@@ -510,12 +510,30 @@ def _written_channels(joint: Joint, has_children: bool) -> list[str]:
     return ["Zrotation", "Yrotation", "Xrotation"]  # a channel-less joint with children
 
 
-def _hierarchy_text(sk: Skeleton, decimals: int) -> str:
-    fmt = _formatter(decimals)
+def _children(sk: Skeleton) -> dict[int, list[int]]:
     kids: dict[int, list[int]] = {i: [] for i in range(sk.n_joints)}
     for i, j in enumerate(sk.joints):
         if j.parent >= 0:
             kids[j.parent].append(i)
+    return kids
+
+
+def _file_order(sk: Skeleton) -> list[int]:
+    """The joints in the order the hierarchy is written (depth first), which is the order
+    of the motion's columns. A skeleton need not be stored in it: a parent only has to come
+    before its children, so a converted rig may list a hip before a shoulder."""
+    kids, order = _children(sk), []
+    stack = [0]
+    while stack:
+        i = stack.pop()
+        order.append(i)
+        stack.extend(reversed(kids[i]))
+    return order
+
+
+def _hierarchy_text(sk: Skeleton, decimals: int) -> str:
+    fmt = _formatter(decimals)
+    kids = _children(sk)
     out = ["HIERARCHY"]
 
     def emit(i: int, depth: int) -> None:
@@ -542,7 +560,8 @@ def _channel_columns(motion: Motion) -> np.ndarray:
     sk = motion.skeleton
     has_kids = {j.parent for j in sk.joints}
     cols: list[np.ndarray] = []
-    for j, joint in enumerate(sk.joints):
+    for j in _file_order(sk):
+        joint = sk.joints[j]
         chans = _written_channels(joint, j in has_kids)
         rot_axes = "".join(c[0] for c in chans if c.endswith("rotation"))
         angles = {}
