@@ -1,3 +1,4 @@
+"""Camera motion subtracted from the cached landmarks: python camflow.py DIR; python camcomp.py DIR."""
 import sys, numpy as np
 sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1] / "act-it-out-2026-11-28i"))
 import harness as H
@@ -6,7 +7,7 @@ base, comp = {}, {}
 for r in H.rows:
     stem = r["file"][:-4]
     w, xy, v, fps, size = H.load(stem)
-    sh = np.load(f"/work/ba/camflow/{stem}.npy")
+    sh = np.load(f"{sys.argv[1]}/{stem}.npy")  # camflow.py DIR wrote them
     cum = np.cumsum(sh, 0)[: len(xy)]
     if len(cum) < len(xy): cum = np.vstack([cum, np.repeat(cum[-1:], len(xy) - len(cum), 0)])
     xy2 = xy - cum[:, None, :]
