@@ -489,6 +489,21 @@ def test_malformed_amc_raises_format_error(tmp_path, name, content, words, line)
         assert f"line {line}:" in msg
 
 
+def test_a_latin1_comment_is_read_and_latin1_elsewhere_is_refused(tmp_path):
+    """Vicon writes the capture folder into the first comment; HDM05's is Latin-1
+    ("#!OML:ASF X:\\für Bonn\\..."). A comment is ignored whatever its bytes; a data line
+    that is not UTF-8 is still a bad file, named with its line."""
+    asf = _write(tmp_path, "tiny.asf", b"# made in M\xfcnchen\n" + TINY_ASF.encode())
+    amc = _write(tmp_path, "take.amc", b"#!OML:ASF X:\\f\xfcr Bonn\\take.ASF\r\n:FULLY-SPECIFIED\r\n:DEGREES\r\n"
+                                       b"1\r\nroot 0 0 0 0 0 0\r\n2\r\nroot 0 1 0 0 0 0\r\n")
+    m = load_motion(amc, asf)
+    assert m.n_frames == 2
+    bad = _write(tmp_path, "bad.amc", b"#!OML:ASF X:\\f\xfcr Bonn\n1\nroot 0 0 0 0 0 0\nb 1 \xfc 3\n")
+    with pytest.raises(MotionFormatError) as info:
+        load_motion(bad, asf)
+    assert "not UTF-8" in str(info.value) and info.value.line == 4
+
+
 MALFORMED_ASF = [
     ("no_end.asf", TINY_ASF.replace("    dof rx\n    limits (-180.0 180.0)\n  end\n", "    dof rx\n"), "missing 'end'", 23),
     ("bad_length.asf", TINY_ASF.replace("length 2\n", "length two\n"), "bad length 'two'", 20),

@@ -69,15 +69,31 @@ def read_lines(path: str | Path) -> list[str]:
         raise MotionFormatError(path, f"cannot read file: {exc.strerror or exc}") from None
     try:
         text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = data[: exc.start].count(b"\n") + 1
-        raise MotionFormatError(
-            path, f"not a text motion file (byte 0x{data[exc.start]:02x} is not UTF-8)", line
-        ) from None
+    except UnicodeDecodeError:
+        text = _decode_by_line(data, path)
     if "\x00" in text:
         line = text[: text.index("\x00")].count("\n") + 1
         raise MotionFormatError(path, "not a text motion file (contains NUL bytes)", line)
     return text.splitlines()
+
+
+def _decode_by_line(data: bytes, path: str | Path) -> str:
+    """``data`` that is not all UTF-8, line by line: a comment line (``#`` first) that is not
+    UTF-8 is read as Latin-1 (Vicon writes the capture folder's name there: HDM05's AMC files
+    begin ``#!OML:ASF X:\\für Bonn\\...`` in Latin-1); any other line that is not UTF-8
+    raises :class:`MotionFormatError` naming it and its first bad byte."""
+    lines = data.removeprefix(b"\xef\xbb\xbf").split(b"\n")
+    out = []
+    for n, raw in enumerate(lines, start=1):
+        try:
+            out.append(raw.decode("utf-8"))
+        except UnicodeDecodeError as exc:
+            if not raw.lstrip().startswith(b"#"):
+                raise MotionFormatError(
+                    path, f"not a text motion file (byte 0x{raw[exc.start]:02x} is not UTF-8)", n
+                ) from None
+            out.append(raw.decode("latin-1"))
+    return "\n".join(out)
 
 
 def parse_float(token: str, path: str | Path, line: int, what: str = "number") -> float:
