@@ -1,0 +1,93 @@
+"""The "hdm05" development studio of issue 31: scripts/hdm05.py reads a snapshot's file
+names into labelled clips and copies the ASF/AMC files as they are.
+
+Built on a throw-away git repository holding one tiny clip, so no fetched motion is needed.
+"""
+from __future__ import annotations
+
+import csv
+import runpy
+import subprocess
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+from retrieval.library import read_labels
+from retrieval.motion import load_motion
+
+REPO = Path(__file__).resolve().parents[2]
+hdm = SimpleNamespace(**runpy.run_path(str(REPO / "scripts" / "hdm05.py")))
+
+_ASF = """:version 1.10
+:name VICON
+:units
+  mass 1.0
+  length 0.45
+  angle deg
+:root
+  order TX TY TZ RX RY RZ
+  axis XYZ
+  position 0 0 0
+  orientation 0 0 0
+:bonedata
+  begin
+    id 1
+    name lfemur
+    direction 0 -1 0
+    length 7
+    axis 0 0 0 XYZ
+    dof rx
+    limits (-180.0 180.0)
+  end
+:hierarchy
+  begin
+    root lfemur
+  end
+"""
+# Vicon's first comment names the capture folder, in Latin-1 for HDM05
+_AMC = b"#!OML:ASF X:\\f\xfcr Bonn\\a.ASF\r\n:FULLY-SPECIFIED\r\n:DEGREES\r\n1\r\nroot 0 17 0 0 0 0\r\nlfemur 5\r\n" \
+       b"2\r\nroot 0 17 0 0 0 0\r\nlfemur 10\r\n"
+
+
+def _git(cwd: Path, *args: str) -> str:
+    return subprocess.run(["git", "-C", str(cwd), *args], check=True, capture_output=True, text=True).stdout.strip()
+
+
+def test_plan_reads_class_and_actor_from_the_file_name():
+    rows = hdm.plan(["README", "train/6/HDM_bd.asf", "train/6/HDM_bd_kickLFront1Reps_003_120.amc",
+                     "train/6/HDM_bd_kickLFront1Reps_003_120.amc.mat"])
+    assert [(r["trial"], r["label"], r["subject"], r["asf"]) for r in rows] == [
+        ("HDM_bd_kickLFront1Reps_003_120", "kick_left_front", "bd", "train/6/HDM_bd.asf")]
+
+
+@pytest.mark.parametrize("paths,words", [
+    (["test/1/HDM_mm.asf", "test/1/HDM_mm_waveRightHand_001_120.amc"], "class 'waveRightHand' is not one of"),
+    (["test/1/HDM_mm_squat1Reps_001_120.amc"], "its skeleton test/1/HDM_mm.asf is not in the snapshot"),
+    (["test/1/HDM_mm.asf", "test/1/mm_squat.amc"], "not an HDM_<actor>_<class>_<take>_120.amc file name"),
+    (["README"], "no HDM_*_120.amc files"),
+])
+def test_plan_refuses_what_it_cannot_place(paths, words):
+    with pytest.raises(hdm.SourceError, match=words.replace("*", r"\*").replace("(", r"\(")):
+        hdm.plan(paths)
+
+
+def test_materialise_copies_the_clips_and_writes_labels_the_library_reads(tmp_path):
+    src = tmp_path / "src"
+    (src / "train" / "10").mkdir(parents=True)
+    (src / "train" / "10" / "HDM_dg.asf").write_text(_ASF)
+    (src / "train" / "10" / "HDM_dg_squat1Reps_002_120.amc").write_bytes(_AMC)
+    _git(tmp_path, "init", "-q", str(src))
+    _git(src, "add", ".")
+    _git(src, "-c", "user.email=t@t", "-c", "user.name=t", "commit", "-qm", "x")
+    bare = tmp_path / "repo"
+    subprocess.run(["git", "clone", "-q", "--bare", str(src), str(bare)], check=True)
+    out = tmp_path / "out"
+    table = hdm.materialise(bare, out, commit=_git(src, "rev-parse", "HEAD"))
+    assert [r["label"] for r in table] == ["squat"]
+    assert (out / "amc" / "HDM_dg_squat1Reps_002_120.amc").read_bytes() == _AMC  # copied as it is
+    with open(out / "labels.csv", newline="") as f:
+        got = list(csv.DictReader(f))
+    assert list(got[0]) == list(hdm.HEADER) and got[0]["skeleton"] == "asf/HDM_dg.asf" and got[0]["subject"] == "dg"
+    row = read_labels(out)[0]
+    assert load_motion(row.file, row.skeleton).n_frames == 2  # the Latin-1 comment is read
