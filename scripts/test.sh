@@ -18,6 +18,9 @@ export SDL_VIDEODRIVER=${SDL_VIDEODRIVER:-offscreen}
 export KIVY_NO_ARGS=1 KIVY_NO_CONSOLELOG=1
 export KIVY_HOME=${KIVY_HOME:-$PWD/.kivy}
 export MPLBACKEND=Agg
+# Kivy makes its home (.kivy, mods/, icon/, config.ini) on first import, without exist_ok:
+# two workers importing it at once on a fresh clone raced to FileExistsError. Make it here, once.
+.venv/bin/python -c "import kivy" >/dev/null
 # One pytest worker per CPU, at most 4 (each loads numpy, OpenCV and Kivy; the app tests start
 # their own child processes); STORYBEAM_TEST_WORKERS overrides, 0 runs in this process.
 # --dist loadscope keeps a module's tests on one worker, so a module's app fixture starts once.
