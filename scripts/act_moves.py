@@ -11,9 +11,12 @@ licences allow shipping them (MIT, Apache-2.0), so the converted files are commi
 script is how they were made.
 
 ``lab/datasets/act_moves_manifest.csv`` names each clip: its library ``trial``, ``label``
-and ``subject`` (the capture set: one performer or studio), the public GitHub ``repository``, the ``commit`` and ``path`` of the file, the
+and ``subject`` (the capture set: one performer or studio), the public GitHub ``repository``, the ``commit`` and ``path`` of the file,
+its ``skeleton`` (an AMC file's ASF, in the same commit; empty for BVH), the
 joint-name prefix to ``keep`` (empty: every joint; ``Character1_`` drops a simulator's
-muscle helper joints), where to ``start`` (seconds: a T-pose held at the start is cut),
+muscle helper joints), where to ``start`` (seconds: a T-pose held at the start is cut)
+and ``end`` (seconds into the file; empty: at most 10 s after ``start``), the movement's
+window in a longer take,
 whether to ``level`` its floor (``yes``: a video capture's drifting floor,
 :func:`retrieval.library.bundle.level_floor`), its ``seconds``, a ``description``, the
 ``licence`` and ``notes``.
@@ -43,8 +46,8 @@ from retrieval.errors import DatasetError  # noqa: E402
 from retrieval.library.bundle import LABEL_COLUMNS, convert_move  # noqa: E402
 
 MANIFEST = REPO / "lab" / "datasets" / "act_moves_manifest.csv"
-COLUMNS = ("trial", "label", "subject", "repository", "commit", "path", "keep", "start", "level", "seconds",
-           "description", "licence", "notes")
+COLUMNS = ("trial", "label", "subject", "repository", "commit", "path", "skeleton", "keep", "start", "end", "level",
+           "seconds", "description", "licence", "notes")
 LABELS = ("walk", "run", "jump", "kick", "dance")
 
 
@@ -64,6 +67,13 @@ def read_manifest(path: Path) -> list[dict[str, str]]:
                     raise ValueError
             except ValueError:
                 raise DatasetError(f"{path}:{line}: start must be seconds (0 or more), got {row['start']!r}") from None
+            try:
+                if row["end"] and float(row["end"]) <= float(row["start"] or 0):
+                    raise ValueError
+            except ValueError:
+                raise DatasetError(f"{path}:{line}: end must be seconds after start, got {row['end']!r}") from None
+            if row["path"].lower().endswith(".amc") != bool(row["skeleton"]):
+                raise DatasetError(f"{path}:{line}: an AMC file needs its ASF in skeleton, and only an AMC file")
             if row["level"].strip().lower() not in ("", "yes"):
                 raise DatasetError(f"{path}:{line}: level must be 'yes' or empty, got {row['level']!r}")
             if len(row["commit"]) != 40:
@@ -96,8 +106,14 @@ def main(argv: list[str] | None = None) -> int:
         for r in rows:
             src = Path(tmp) / f"{r['trial']}{Path(r['path']).suffix}"
             src.write_bytes(git_show(args.mirror, r["repository"], r["commit"], r["path"]))
-            motion = convert_move(src, args.out / f"{r['trial']}.bvh", r["trial"], r["keep"], float(r["start"] or 0),
-                                  level=r["level"].strip().lower() == "yes")
+            skeleton = None
+            if r["skeleton"]:
+                skeleton = Path(tmp) / f"{r['trial']}.asf"
+                skeleton.write_bytes(git_show(args.mirror, r["repository"], r["commit"], r["skeleton"]))
+            start = float(r["start"] or 0)
+            length = min(10.0, float(r["end"]) - start) if r["end"] else 10.0
+            motion = convert_move(src, args.out / f"{r['trial']}.bvh", r["trial"], r["keep"], start,
+                                  max_seconds=length, level=r["level"].strip().lower() == "yes", skeleton=skeleton)
             licences.setdefault(r["repository"], (r["commit"], r["licence"]))
             labels.append({"trial": r["trial"], "label": r["label"], "subject": r["subject"],
                            "file": f"{r['trial']}.bvh", "skeleton": "", "seconds": f"{motion.seconds:.2f}",
@@ -158,8 +174,8 @@ def contact_sheet(files: list[Path], png: Path, moments: int = 8) -> None:
 
 
 def credits(rows: list[dict[str, str]]) -> str:
-    lines = ["# Moves from other studios: credits", "",
-             "Movements children make that the CMU folder lacks, converted by `scripts/act_moves.py` from",
+    lines = ["# Moves the CMU folder lacks: credits", "",
+             "Movements children make that the shared CMU folder lacks, converted by `scripts/act_moves.py` from",
              "`lab/datasets/act_moves_manifest.csv` (30 fps, at most 10 s, centimetres, BVH). Each",
              "repository's licence is copied beside the clips (`LICENSE-<owner>-<name>.txt`).", ""]
     for repository in dict.fromkeys(r["repository"] for r in rows):
@@ -167,8 +183,9 @@ def credits(rows: list[dict[str, str]]) -> str:
         lines.append(f"- **{repository}** (https://github.com/{repository}, commit {mine[0]['commit'][:7]}), "
                      f"licence {mine[0]['licence']}: " + "; ".join(f"`{r['trial']}` from `{r['path']}` "
                                                                     f"({r['notes']})" for r in mine) + ".")
-    lines += ["", "`ad_jumping_jacks` is a CMU capture: \"The data used in this project was obtained from",
-              "mocap.cs.cmu.edu. The database was created with funding from NSF EIA-0196217.\"", ""]
+    cmu = [r["trial"] for r in rows if "CMU" in r["licence"] + r["notes"]]
+    lines += ["", ", ".join(f"`{t}`" for t in cmu) + " are CMU captures: \"The data used in this project was obtained",
+              "from mocap.cs.cmu.edu. The database was created with funding from NSF EIA-0196217.\"", ""]
     return "\n".join(lines)
 
 

@@ -13,8 +13,9 @@ converted to centimetres and written as BVH with 4 decimals through
 :func:`retrieval.motion.formats.bvh.save_bvh`. The skeleton stays CMU's Acclaim one (joints ``root``,
 ``lfemur``, ...), which :func:`retrieval.motion.body.canonical_joint_map` understands.
 
-**Moves from other studios** (``OUT/moves/``, :data:`MOVES_FOLDER`): movements children make
-that the CMU folder lacks (jumping jacks, a high front kick, dances), taken from public
+**Moves the CMU folder lacks** (``OUT/moves/``, :data:`MOVES_FOLDER`): movements children make
+that the shared CMU folder lacks (jumping jacks, a high front kick, dances), from other
+studios and from CMU takes outside that folder, taken from public
 repositories whose licences allow shipping them (``lab/datasets/act_moves_manifest.csv``,
 ``scripts/act_moves.py``, which converts each with :func:`convert_move`). When
 ``OUT/moves/labels.csv`` exists, :func:`build` lists its clips in the library's
@@ -125,13 +126,15 @@ def level_floor(motion: Motion, window_seconds: float = FLOOR_WINDOW_SECONDS,
 
 
 def convert_move(src: Path, out: Path, trial: str, keep: str = "", start: float = 0.0, fps: float = 30.0,
-                 max_seconds: float = 10.0, decimals: int = 4, level: bool = False) -> Motion:
+                 max_seconds: float = 10.0, decimals: int = 4, level: bool = False,
+                 skeleton: Path | None = None) -> Motion:
     """One move from another studio as the library keeps its clips: read ``src`` (any
-    format :func:`load_motion` reads), keep the joints named ``keep*`` (empty: all),
-    with ``level`` its floor made level (:func:`level_floor`), resample to ``fps``, start
-    ``start`` seconds in, cut to ``max_seconds``, centimetres, BVH with ``decimals``
-    decimals at ``out``. Returns the written motion."""
-    motion = load_motion(src)
+    format :func:`load_motion` reads; an AMC file with its ASF ``skeleton``), keep the
+    joints named ``keep*`` (empty: all), with ``level`` its floor made level
+    (:func:`level_floor`), resample to ``fps``, start ``start`` seconds in, cut to
+    ``max_seconds``, centimetres, BVH with ``decimals`` decimals at ``out``. Returns the
+    written motion."""
+    motion = load_motion(src, skeleton) if skeleton is not None else load_motion(src)
     if keep:
         motion = keep_joints(motion, keep)
     if level:
@@ -232,7 +235,7 @@ def _credits(rows: list[dict], fps: float, max_seconds: float) -> str:
     moves = [r for r in rows if r["file"].startswith(f"{MOVES_FOLDER}/")]
     trials = ", ".join(r["trial"] for r in cmu)
     extra = "" if not moves else (
-        f"\n## Moves from other studios ({MOVES_FOLDER}/)\n\n"
+        f"\n## Moves the CMU folder lacks ({MOVES_FOLDER}/)\n\n"
         f"Trials: {', '.join(r['trial'] for r in moves)}. Their sources, licences and credits: "
         f"`{MOVES_FOLDER}/CREDITS.md`.\n")
     return (

@@ -1,4 +1,4 @@
-"""The app's moves from other studios (``assets/motions/moves``): a rig's helper joints
+"""The app's moves the CMU folder lacks (``assets/motions/moves``): a rig's helper joints
 dropped without moving the rest, every move a clip the library and Act it out can use,
 listed in the app's library, joined to any ``--data`` folder by trial name, and found
 when performed."""
@@ -89,7 +89,8 @@ def test_every_bundled_move_is_a_labelled_clip_the_library_can_read():
         canonical_joint_map(m.skeleton)  # raises when a body part is missing
         assert m.fps == pytest.approx(30.0) and 1.5 <= m.seconds <= 10.01, r.trial
     licences = sorted(p.name for p in MOVES_DIR.glob("LICENSE-*.txt"))
-    assert licences == ["LICENSE-facebookresearch-AnimatedDrawings.txt", "LICENSE-lsw9021-MASS.txt"]
+    assert licences == ["LICENSE-facebookresearch-AnimatedDrawings.txt", "LICENSE-lsw9021-MASS.txt",
+                        "LICENSE-michaelchughes-NPBayesHMM.txt"]
     credits = (MOVES_DIR / "CREDITS.md").read_text(encoding="utf-8")
     assert all(f"`{r.trial}`" in credits for r in rows)
 
@@ -181,12 +182,35 @@ def test_the_moves_option_names_a_folder_or_none(tmp_path):
         moves_folder(str(tmp_path))
 
 
-def test_the_materialiser_refuses_a_malformed_manifest(tmp_path):
+@pytest.mark.parametrize("row,words", [
+    ("x,skip,s,o/r,{c},p.bvh,,,0,,,1,d,MIT,n", "label 'skip'"),
+    ("x,jump,s,o/r,{c},p.bvh,,,2,1.5,,1,d,MIT,n", "end must be seconds after start, got '1.5'"),
+    ("x,jump,s,o/r,{c},p.amc,,,0,,,1,d,MIT,n", "an AMC file needs its ASF in skeleton"),
+    ("x,jump,s,o/r,{c},p.bvh,s.asf,,0,,,1,d,MIT,n", "an AMC file needs its ASF in skeleton"),
+])
+def test_the_materialiser_refuses_a_malformed_manifest(tmp_path, row, words):
     manifest = tmp_path / "m.csv"
-    manifest.write_text("trial,label,subject,repository,commit,path,keep,start,level,seconds,description,licence,notes\n"
-                        f"x,skip,s,o/r,{'a' * 40},p.bvh,,0,,1,d,MIT,n\n")
+    manifest.write_text("trial,label,subject,repository,commit,path,skeleton,keep,start,end,level,seconds,description,"
+                        "licence,notes\n" + row.format(c="a" * 40) + "\n")
     out = subprocess.run([sys.executable, str(REPO_ROOT / "scripts" / "act_moves.py"), "--manifest", str(manifest),
                           "--out", str(tmp_path / "o"), "--mirror", str(tmp_path)], capture_output=True, text=True)
     assert out.returncode != 0
-    assert f"{manifest}:2: label 'skip'" in out.stderr
+    assert f"{manifest}:2: {words}" in out.stderr
     assert "Traceback" not in out.stderr
+
+
+def test_convert_move_reads_an_amc_with_its_asf_and_keeps_its_window(cmu_dir, tmp_path):
+    """A move cut from a longer CMU take (the jumping jacks of 13_29, say): the AMC read with
+    its ASF, the window's frames kept, resampled to 30 fps, nothing else moved."""
+    from retrieval.library.bundle import convert_move
+    src, asf = cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf"
+    whole = load_motion(src, asf)
+    out = convert_move(src, tmp_path / "w.bvh", "w", start=1.0, max_seconds=1.5, skeleton=asf)
+    assert out.fps == pytest.approx(30.0) and out.n_frames == 45
+    back = load_motion(tmp_path / "w.bvh")
+    jm, jw = canonical_joint_map(back.skeleton), canonical_joint_map(whole.skeleton)
+    p, q = positions(back), positions(whole)
+    for k in (0, 44):  # frame k at 30 fps is frame 120 + 4k of the 120 fps take
+        for part in ("hips", "left_ankle", "right_hand"):
+            np.testing.assert_allclose(p[k, jm[part]] - p[0, jm["hips"]], q[120 + 4 * k, jw[part]] - q[120, jw["hips"]],
+                                       atol=0.002)
