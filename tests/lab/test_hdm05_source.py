@@ -15,39 +15,14 @@ import pytest
 
 from retrieval.library import read_labels
 from retrieval.motion import load_motion
+from tests.support.synthetic_motion import TINY_ASF
 
 REPO = Path(__file__).resolve().parents[2]
 hdm = SimpleNamespace(**runpy.run_path(str(REPO / "scripts" / "hdm05.py")))
 
-_ASF = """:version 1.10
-:name VICON
-:units
-  mass 1.0
-  length 0.45
-  angle deg
-:root
-  order TX TY TZ RX RY RZ
-  axis XYZ
-  position 0 0 0
-  orientation 0 0 0
-:bonedata
-  begin
-    id 1
-    name lfemur
-    direction 0 -1 0
-    length 7
-    axis 0 0 0 XYZ
-    dof rx
-    limits (-180.0 180.0)
-  end
-:hierarchy
-  begin
-    root lfemur
-  end
-"""
 # Vicon's first comment names the capture folder, in Latin-1 for HDM05
-_AMC = b"#!OML:ASF X:\\f\xfcr Bonn\\a.ASF\r\n:FULLY-SPECIFIED\r\n:DEGREES\r\n1\r\nroot 0 17 0 0 0 0\r\nlfemur 5\r\n" \
-       b"2\r\nroot 0 17 0 0 0 0\r\nlfemur 10\r\n"
+_AMC = b"#!OML:ASF X:\\f\xfcr Bonn\\a.ASF\r\n:FULLY-SPECIFIED\r\n:DEGREES\r\n1\r\nroot 0 17 0 0 0 0\r\na 5\r\n" \
+       b"2\r\nroot 0 17 0 0 0 0\r\na 10\r\n"
 
 
 def _git(cwd: Path, *args: str) -> str:
@@ -75,7 +50,7 @@ def test_plan_refuses_what_it_cannot_place(paths, words):
 def test_materialise_copies_the_clips_and_writes_labels_the_library_reads(tmp_path):
     src = tmp_path / "src"
     (src / "train" / "10").mkdir(parents=True)
-    (src / "train" / "10" / "HDM_dg.asf").write_text(_ASF)
+    (src / "train" / "10" / "HDM_dg.asf").write_text(TINY_ASF)
     (src / "train" / "10" / "HDM_dg_squat1Reps_002_120.amc").write_bytes(_AMC)
     _git(tmp_path, "init", "-q", str(src))
     _git(src, "add", ".")

@@ -15,53 +15,12 @@ from retrieval.errors import MotionFormatError
 from retrieval.motion import global_transforms, positions, rest_positions
 from retrieval.motion import Motion, Skeleton
 from retrieval.motion.formats import clear_skeleton_cache, load_motion, load_skeleton
+from tests.support.synthetic_motion import TINY_ASF
 
 ACCLAIM_M = 0.0254 / 0.45  # metres per unit of CMU's ASF files (":units length 0.45")
 
 # ----------------------------------------------------------------------------- Acclaim on a tiny hand-made skeleton
-
-TINY_ASF = """\
-# a tiny test skeleton
-:version 1.10
-:name tiny
-:units
-  mass 1.0
-  length 0.45
-  angle deg
-:documentation
-  two bones
-:root
-   order TX TY TZ RX RY RZ
-   axis XYZ
-   position 0 0 0
-   orientation 0 0 0
-:bonedata
-  begin
-     id 1
-     name a
-     direction 1 0 0
-     length 2
-     axis 0 0 90  XYZ
-    dof rx
-    limits (-180.0 180.0)
-  end
-  begin
-     id 2
-     name b
-     direction 1 0 0
-     length 1
-     axis 0 0 0 XYZ
-    dof rx ry rz
-    limits (-180.0 180.0)
-           (-180.0 180.0)
-           (-180.0 180.0)
-  end
-:hierarchy
-  begin
-    root a
-    a b
-  end
-"""
+# (TINY_ASF, from tests/support/synthetic_motion.py)
 
 
 def _write(tmp_path: Path, name: str, text: str | bytes) -> Path:

@@ -136,3 +136,49 @@ def write_bvh(motion: Motion, path) -> None:
         lines.append(" ".join(f"{v:.6f}" for v in vals))
     with open(path, "w") as fh:
         fh.write("\n".join(lines) + "\n")
+
+
+#: A two-bone Acclaim skeleton written by hand (bones ``a``: dof rx, ``b``: dof rx ry rz),
+#: for tests of the ASF/AMC readers and of what reads through them.
+TINY_ASF = """\
+# a tiny test skeleton
+:version 1.10
+:name tiny
+:units
+  mass 1.0
+  length 0.45
+  angle deg
+:documentation
+  two bones
+:root
+   order TX TY TZ RX RY RZ
+   axis XYZ
+   position 0 0 0
+   orientation 0 0 0
+:bonedata
+  begin
+     id 1
+     name a
+     direction 1 0 0
+     length 2
+     axis 0 0 90  XYZ
+    dof rx
+    limits (-180.0 180.0)
+  end
+  begin
+     id 2
+     name b
+     direction 1 0 0
+     length 1
+     axis 0 0 0 XYZ
+    dof rx ry rz
+    limits (-180.0 180.0)
+           (-180.0 180.0)
+           (-180.0 180.0)
+  end
+:hierarchy
+  begin
+    root a
+    a b
+  end
+"""
