@@ -184,8 +184,10 @@ def credits(rows: list[dict[str, str]]) -> str:
                      f"licence {mine[0]['licence']}: " + "; ".join(f"`{r['trial']}` from `{r['path']}` "
                                                                     f"({r['notes']})" for r in mine) + ".")
     cmu = [r["trial"] for r in rows if "CMU" in r["licence"] + r["notes"]]
-    lines += ["", ", ".join(f"`{t}`" for t in cmu) + " are CMU captures: \"The data used in this project was obtained",
-              "from mocap.cs.cmu.edu. The database was created with funding from NSF EIA-0196217.\"", ""]
+    if cmu:
+        lines += ["", ", ".join(f"`{t}`" for t in cmu) + " are CMU captures: \"The data used in this project was "
+                  "obtained", "from mocap.cs.cmu.edu. The database was created with funding from NSF EIA-0196217.\""]
+    lines.append("")
     return "\n".join(lines)
 
 

@@ -134,7 +134,7 @@ def convert_move(src: Path, out: Path, trial: str, keep: str = "", start: float 
     (:func:`level_floor`), resample to ``fps``, start ``start`` seconds in, cut to
     ``max_seconds``, centimetres, BVH with ``decimals`` decimals at ``out``. Returns the
     written motion."""
-    motion = load_motion(src, skeleton) if skeleton is not None else load_motion(src)
+    motion = load_motion(src, skeleton)
     if keep:
         motion = keep_joints(motion, keep)
     if level:
