@@ -7,10 +7,11 @@ confusion matrix per method and split). ``--split random,subject`` runs the rand
 and leave-one-subject-out (performer / style) one after the other and tabulates both.
 
 Methods: ``storybeam`` (StoryBeam's own: code + clip-summary shortlist, exact float-DTW
-re-ranking on MR17 + turning rate), ``dtw-storybeam`` (exact DTW on the same features), and the seed's
+re-ranking on MR17 + turning rate + where the hands are; the codes see the first 18),
+``dtw-storybeam`` (exact DTW on the same features), and the seed's
 ``quantized``, ``quantized-fast``, ``dtw``, ``forbes`` on the 17 MR17 features.
 ``--features mr17`` and ``--heading-weight`` change what the storybeam methods see
-(ablations; ``--features storybeam-hands`` adds where the hands are in the body's frame);
+(ablations; ``--features storybeam-no-hands`` drops where the hands are in the body's frame);
 ``--shortlist`` how many clips it re-ranks, ``--summary`` how many of those the clip
 summaries choose (0: the codes alone, the method before issue 31).
 
@@ -57,9 +58,9 @@ def register(subparsers) -> None:
                    help="comma list of storybeam, dtw-storybeam, quantized-fast, quantized, dtw, forbes")
     p.add_argument("--split", default="random",
                    help="comma list of protocols: random (stratified --folds), subject (leave one subject out)")
-    p.add_argument("--features", choices=["storybeam", "storybeam-hands", "mr17"], default="storybeam",
-                   help="features of the storybeam and dtw-storybeam methods (ablations: mr17; storybeam-hands, "
-                        "the set plus where the hands are in the body's frame)")
+    p.add_argument("--features", choices=["storybeam", "storybeam-no-hands", "mr17"], default="storybeam",
+                   help="features of the storybeam and dtw-storybeam methods (ablations: mr17; storybeam-no-hands, "
+                        "the set without where the hands are in the body's frame)")
     p.add_argument("--heading-weight", type=float, default=None,
                    help="weight of the turning rate in the storybeam features (ablation; default the set's)")
     p.add_argument("--normalise", choices=["legs", "arms", "chain"], default=None,
@@ -167,12 +168,14 @@ def identity_check(rows, clips, fps: float, feature_set: str, write_fps: float, 
 
     from retrieval.animation import BodyProportions, canonical_skeleton, retarget  # deferred: as above
     from retrieval.codes import DiffTable, Quantizer  # deferred: as above
+    from retrieval.features import get_feature_set  # deferred: as above
     from retrieval.library import SHORTLIST, StoryBeamSearcher, clip_from_motion  # deferred: as above
     from retrieval.motion import load_motion, resample, save_bvh  # deferred: as above
     from retrieval.search import FastSearcher  # deferred: as above
 
     target = canonical_skeleton(BodyProportions(**IDENTITY_PROPORTIONS), IDENTITY_HEIGHT_M, "identity-child")
-    sb = StoryBeamSearcher.fit([c.features for c in clips], dims, shortlist or SHORTLIST)
+    sb = StoryBeamSearcher.fit([c.features for c in clips], dims, shortlist or SHORTLIST,
+                               code_columns=get_feature_set(feature_set).code_columns)
     # the seed's method: its quantiser on the MR17 columns, the exact fast search over its codes
     seed_lib = [c.features[:, :17] for c in (clips if seed_clips is None else seed_clips)]
     seed_q = Quantizer.fit(np.concatenate(seed_lib), dims)
@@ -363,7 +366,8 @@ def run(args) -> int:
             kw["summary"] = args.summary
         res = evaluate(clips, methods, args.folds, args.dims, args.seed, args.band, args.forbes_clusters,
                        progress=progress_bar(f"evaluating ({split} split)", "fold", not args.quiet),
-                       backend=args.backend, split=split, seed_clips=seed_clips, **kw)
+                       backend=args.backend, split=split, seed_clips=seed_clips,
+                       code_columns=get_feature_set(feature_set).code_columns, **kw)
         per_split[split] = {n: r.as_dict() for n, r in res.items()}
     out = {
         "n_clips": len(clips),

@@ -29,6 +29,7 @@ from lab.bench.retrieval import set_threads
 from lab.bench.scale_library import derived_takes
 from retrieval.dtw import HAVE_NUMBA, dtw_features
 from retrieval.errors import StoryBeamError
+from retrieval.features import get_feature_set
 from lab.experiment import stratified_folds
 from retrieval.library import SHORTLIST, StoryBeamSearcher, load_dataset
 
@@ -71,7 +72,8 @@ def run_storybeam_scale_bench(data: str | Path, fps: float = 30.0, min_clips: in
     bar.close()
     derive_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    searcher = StoryBeamSearcher.fit(library, shortlist=shortlist)
+    searcher = StoryBeamSearcher.fit(library, shortlist=shortlist,
+                                     code_columns=get_feature_set(FEATURE_SET).code_columns)
     build_s = time.perf_counter() - t0
     queries = [np.ascontiguousarray(clips[i].features, dtype=np.float64) for i in query_idx]
     searcher.search(queries[0])  # compile and warm up

@@ -27,6 +27,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from retrieval.errors import StoryBeamError
+from retrieval.features import get_feature_set
 from retrieval.library import (
     POSE_FEATURE_SET,
     Clip,
@@ -89,7 +90,8 @@ def skeleton_identity(rows: Sequence[LabelRow], clips: Sequence[Clip], others: S
     docstring): same trial first by find and by the class ranking, the misses (what was
     found instead) and the names not in the library."""
     pairs, unmatched = match_by_name(rows, others)
-    sb = StoryBeamSearcher.fit([c.features for c in clips], dims, shortlist)
+    sb = StoryBeamSearcher.fit([c.features for c in clips], dims, shortlist,
+                               code_columns=get_feature_set(feature_set).code_columns)
     found = top = 0
     misses = []
     for n, (i, other) in enumerate(pairs):

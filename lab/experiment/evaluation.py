@@ -94,7 +94,8 @@ def subject_folds(subjects: Sequence[str]) -> list[np.ndarray]:
 
 
 def make_matcher(name: str, dims: int = 6, band: int | None = None, forbes_clusters: int | None = None,
-                 seed: int = 0, backend: str = "auto", shortlist: int = SHORTLIST, summary: int = SUMMARY):
+                 seed: int = 0, backend: str = "auto", shortlist: int = SHORTLIST, summary: int = SUMMARY,
+                 code_columns: int | None = None):
     """A fresh matcher for a method name. Forbes–Fiume's k defaults to 4ⁿ capped at 1024
     (k-means cost grows with k × frames; the cap is reported with the results)."""
     if name == "quantized":
@@ -106,7 +107,7 @@ def make_matcher(name: str, dims: int = 6, band: int | None = None, forbes_clust
         m.name = name
         return m
     if name == "storybeam":
-        return StoryBeamMatcher(dims, band, shortlist, backend, summary)
+        return StoryBeamMatcher(dims, band, shortlist, backend, summary, code_columns)
     if name == "forbes":
         k = forbes_clusters if forbes_clusters else min(4**dims, 1024)
         return ForbesFiumeMatcher(clusters=k, band=band, backend=backend, seed=seed)
@@ -197,14 +198,16 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
              seed: int = 0, band: int | None = None, forbes_clusters: int | None = None,
              progress: Callable[[int, int], None] | None = None, matcher_factory: Callable | None = None,
              backend: str = "auto", split: str = "random", shortlist: int = SHORTLIST,
-             summary: int = SUMMARY, seed_clips: Sequence[Clip] | None = None) -> dict[str, MethodResult]:
+             summary: int = SUMMARY, seed_clips: Sequence[Clip] | None = None,
+             code_columns: int | None = None) -> dict[str, MethodResult]:
     """Run the k-fold 1-NN protocol for each method; returns results keyed by method.
     ``split``: "random" (stratified ``folds``) or "subject" (leave one subject group out;
     ``folds`` is then ignored). ``progress(done, total)`` is called after each fold.
     ``seed_clips``: the same clips in the seed's MR17 features, for the seed's methods
     (needed when ``clips`` carry a set whose MR17 columns are not the seed's, such as
     the storybeam set on the canonical body); by default the first MR17 columns of
-    ``clips``."""
+    ``clips``. ``code_columns``: the storybeam method's codes see only the first that
+    many feature columns (the clips' set's ``code_columns``; None: all)."""
     for m in methods:
         if m not in METHODS and matcher_factory is None:
             raise EvaluationError(f"unknown method {m!r} (choose from {', '.join(METHODS)})")
@@ -228,7 +231,8 @@ def evaluate(clips: Sequence[Clip], methods: Sequence[str] = METHODS, folds: int
         factory = matcher_factory or make_matcher
         matchers = {}
         for name in methods:  # build phase, timed per method
-            kw = {"shortlist": shortlist, "summary": summary} if name == "storybeam" and matcher_factory is None else {}
+            kw = ({"shortlist": shortlist, "summary": summary, "code_columns": code_columns}
+                  if name == "storybeam" and matcher_factory is None else {})
             matcher = factory(name, dims=dims, band=band, forbes_clusters=forbes_clusters, seed=seed + f,
                               backend=backend, **kw)
             view = seed_view if name in SEED_METHODS else clips

@@ -130,13 +130,15 @@ class StoryBeamMatcher:
     by exact DTW on the float features. ``distances`` returns the exact float-DTW
     distance of the nearest re-ranked reference and inf for every other one — enough for
     the 1-NN protocol's argmin. Registered as "storybeam"; it runs on whatever features
-    the clips carry (the evaluation gives it the ``"storybeam"`` feature set)."""
+    the clips carry (the evaluation gives it the ``"storybeam"`` feature set), its codes on
+    the first ``code_columns`` of them (None: all; the set's ``code_columns``)."""
 
     name = "storybeam"
 
     def __init__(self, dims: int = 6, band: int | None = None, shortlist: int = SHORTLIST, backend: str = "auto",
-                 summary: int = SUMMARY):
+                 summary: int = SUMMARY, code_columns: int | None = None):
         self.dims = dims
+        self.code_columns = code_columns
         self.band = band
         self.shortlist = shortlist
         self.summary = summary
@@ -148,7 +150,8 @@ class StoryBeamMatcher:
         if not references:
             raise MatcherError("no reference clips to fit on")
         self.searcher = StoryBeamSearcher.fit([c.features for c in references], self.dims, self.shortlist,
-                                              self.band, self.backend, summary=self.summary)
+                                              self.band, self.backend, summary=self.summary,
+                                              code_columns=self.code_columns)
         return self
 
     def distances(self, query: Clip) -> np.ndarray:

@@ -86,24 +86,37 @@ def unpack_codes(codes: np.ndarray, n: int) -> np.ndarray:
 
 @dataclass
 class Quantizer:
-    """A fitted PCA + 2-bit quantiser with ``n`` kept components."""
+    """A fitted PCA + 2-bit quantiser with ``n`` kept components. ``columns``: when set,
+    the codes see only the frames' first ``columns`` features (the PCA is fitted on those;
+    its axes carry zero weight on the rest, so a full-width frame projects as its first
+    columns alone), None for all of them."""
 
     pca: PCA
     n: int
     mu: np.ndarray
     sigma: np.ndarray
+    columns: int | None = None
 
     @classmethod
-    def fit(cls, reference_frames: np.ndarray, n: int) -> "Quantizer":
-        """Fit on the reference frames only (queries must not leak into μ, σ or the axes)."""
+    def fit(cls, reference_frames: np.ndarray, n: int, columns: int | None = None) -> "Quantizer":
+        """Fit on the reference frames only (queries must not leak into μ, σ or the axes);
+        ``columns``: code only the first that many features (see the class)."""
         x = np.asarray(reference_frames, dtype=np.float64)
         if x.ndim != 2:
             raise QuantizerError(f"reference frames must be (frames, dims), got {x.shape}")
-        if not 1 <= n <= min(x.shape[1], MAX_DIMS):
-            raise QuantizerError(f"n must be 1..{min(x.shape[1], MAX_DIMS)} for {x.shape[1]}-D features, got {n}")
-        pca = PCA.fit(x)
+        if columns is not None and not 1 <= columns <= x.shape[1]:
+            raise QuantizerError(f"columns must be 1..{x.shape[1]} for {x.shape[1]}-D features, got {columns}")
+        width = x.shape[1] if columns is None else columns
+        if not 1 <= n <= min(width, MAX_DIMS):
+            raise QuantizerError(f"n must be 1..{min(width, MAX_DIMS)} for {width}-D features, got {n}")
+        pca = PCA.fit(x[:, :width])
+        if width < x.shape[1]:
+            # the same axes over the full width, with zero weight on the uncoded columns
+            extra = x.shape[1] - width
+            pca = PCA(np.concatenate([pca.mean, x[:, width:].mean(axis=0)]),
+                      np.pad(pca.components, ((0, 0), (0, extra))), pca.variances)
         a = pca.project(x, n)
-        return cls(pca, n, a.mean(axis=0), a.std(axis=0))
+        return cls(pca, n, a.mean(axis=0), a.std(axis=0), columns)
 
     @property
     def ratios(self) -> np.ndarray:
@@ -133,9 +146,10 @@ class Quantizer:
             f"{prefix}mu": self.mu,
             f"{prefix}sigma": self.sigma,
             f"{prefix}n": np.array(self.n),
-        }
+        } | ({} if self.columns is None else {f"{prefix}columns": np.array(self.columns)})
 
     @classmethod
     def from_arrays(cls, arrays, prefix: str = "q_") -> "Quantizer":
         pca = PCA(arrays[f"{prefix}mean"], arrays[f"{prefix}components"], arrays[f"{prefix}variances"])
-        return cls(pca, int(arrays[f"{prefix}n"]), arrays[f"{prefix}mu"], arrays[f"{prefix}sigma"])
+        columns = int(arrays[f"{prefix}columns"]) if f"{prefix}columns" in arrays else None
+        return cls(pca, int(arrays[f"{prefix}n"]), arrays[f"{prefix}mu"], arrays[f"{prefix}sigma"], columns)

@@ -137,6 +137,10 @@ class FeatureSet:
     #: Percentile of the per-frame lowest foot joint that "height" features stand on
     #: (:func:`clip_floor`).
     floor_percentile: float = FLOOR_PERCENTILE
+    #: How many leading columns the 2-bit codes of a search see (0: all). Columns after
+    #: them enter the exact re-ranking and the clip summaries only (the StoryBeam set's
+    #: hand placement: :mod:`retrieval.features.storybeam_set`).
+    coded: int = 0
 
     @property
     def dim(self) -> int:
@@ -160,6 +164,12 @@ class FeatureSet:
         if any(s.kind in _FLOOR_KINDS for s in self.specs):
             used.update(_FOOT_JOINTS)
         return used
+
+    @property
+    def code_columns(self) -> int | None:
+        """The columns the codes see, as :meth:`Quantizer.fit <retrieval.codes.Quantizer.fit>`
+        takes them: None for all."""
+        return self.coded if 0 < self.coded < self.dim else None
 
     @property
     def needs_fps(self) -> bool:

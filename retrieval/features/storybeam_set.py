@@ -1,6 +1,6 @@
 """StoryBeam's own feature set (``"storybeam"``): the 17 body-part distances of
 :data:`~retrieval.features.relational.MR17`, unchanged and in the same order, plus the
-body's turning rate.
+body's turning rate, plus where each hand is in the body's own frame (:func:`hand_specs`).
 
 Why the extra column: every MR17 value is a distance or a height, invariant to the
 body's heading — which is what makes them skeleton- and placement-invariant, but also
@@ -16,6 +16,15 @@ The distances are taken on the canonical body (:data:`BODY`): every skeleton re-
 with the same bone lengths (:func:`~retrieval.motion.canonical_pose`), so a trial on
 another character gives the same features as on its own. The first 17 columns are
 MR17's pairs in MR17's order (:func:`mr17_columns`), on that body.
+
+Why the hand columns (issue 31): a wave, a knock on a door and a guiding arm put the hand
+at much the same distances from the head and shoulders, but one swings it across in front
+of the face, one forward and back, one holds it out to the side. The last four columns
+say which. The 2-bit codes see only the first 18 columns (:attr:`FeatureSet.coded`):
+the hand columns vary with each performer's arm swing in a walk, and coded they cost the
+two-actor gait studio 7.6 points leaving one actor out; in the summaries and the exact
+re-ranking they cost it 2.2 and gain the gesture studio 4.8
+(docs/notebook/results.md, "Gestures from another studio").
 """
 from __future__ import annotations
 
@@ -49,8 +58,11 @@ BODY = "canonical"
 _TURN_JOINTS = ("left_hip", "right_hip", "left_shoulder", "right_shoulder")
 
 #: Weight of the four hand-placement columns (:func:`hand_specs`; leg lengths, as the
-#: distances). 0 leaves them out (issue 31's ablation in docs/notebook/results.md).
-HANDS_WEIGHT = 0.0
+#: distances); 0 leaves them out. At 1 since issue 31's gesture studio (UTD-MHAD, leave one
+#: performer out: 81.9 -> 86.6 %; docs/notebook/results.md). They enter the exact
+#: re-ranking and the clip summaries but not the 2-bit codes (:attr:`FeatureSet.coded`):
+#: coded too, they cost the two-actor gait studio 7.6 points leaving one actor out.
+HANDS_WEIGHT = 1.0
 
 
 def hand_specs(weight: float = 1.0) -> tuple[FeatureSpec, ...]:
@@ -78,25 +90,30 @@ def storybeam_feature_set(heading_weight: float = HEADING_WEIGHT, name: str = "s
                           hands_weight: float = HANDS_WEIGHT) -> FeatureSet:
     """MR17's pairs plus the turning rate at ``heading_weight``, lengths normalised by
     ``normalise``, on the ``body``, then — when ``hands_weight`` > 0 — the four
-    hand-placement columns of :func:`hand_specs` at that weight (the registered set uses
-    :data:`HEADING_WEIGHT`, :data:`NORMALISE`, :data:`BODY` and :data:`HANDS_WEIGHT`;
-    other values are for ablations; ``"storybeam-hands"`` is the set with hands at 1)."""
+    hand-placement columns of :func:`hand_specs` at that weight, which the codes do not
+    see (``coded``: the first 18 columns). The registered set uses :data:`HEADING_WEIGHT`,
+    :data:`NORMALISE`, :data:`BODY` and :data:`HANDS_WEIGHT`; other values are for
+    ablations (``"storybeam-no-hands"``: the set before the hand columns)."""
+    base = MR17.dim + 1
     return FeatureSet(
         name=name,
         normalise=normalise,
         centre=centre,
         body=body,
-        description="MR17 body-part distances plus the body's turning rate (rad/s)",
+        description="MR17 body-part distances plus the body's turning rate (rad/s)"
+                    + (" and where the hands are in the body's frame" if hands_weight > 0 else ""),
         specs=MR17.specs + (
             FeatureSpec("heading_rate", "heading_rate", _TURN_JOINTS,
                         "turning: a walk that turns left / right vs a straight walk", heading_weight),
         ) + (hand_specs(hands_weight) if hands_weight > 0 else ()),
+        coded=base if hands_weight > 0 else 0,
     )
 
 
 STORYBEAM = register_feature_set(storybeam_feature_set())
-#: The StoryBeam set with the hand-placement columns at weight 1 (issue 31's ablation).
-STORYBEAM_HANDS = register_feature_set(storybeam_feature_set(name="storybeam-hands", hands_weight=1.0))
+#: The StoryBeam set without the hand-placement columns (the set before issue 31's gesture
+#: studio; an ablation).
+STORYBEAM_NO_HANDS = register_feature_set(storybeam_feature_set(name="storybeam-no-hands", hands_weight=0.0))
 
 
 def heading_weight_of(feature_set: FeatureSet) -> float:

@@ -69,6 +69,14 @@ def features_tag(feature_set: str) -> str:
     except FeatureError:
         return ""
     return f"canonical-{CANONICAL_POSE_VERSION}" if body == "canonical" else body
+def _feature_width(feature_set: str) -> int:
+    """Columns of a feature set's features (0 for a set this StoryBeam does not know)."""
+    try:
+        return get_feature_set(feature_set).dim
+    except FeatureError:
+        return 0
+
+
 METHODS = ("storybeam", "quantized")
 JSON_NAME = "index.json"
 NPZ_NAME = "index.npz"
@@ -131,7 +139,9 @@ class MotionIndex:
         fps = {round(c.fps, 6) for c in clips}
         if len(fps) != 1:
             raise StoryBeamError(f"clips have different frame rates {sorted(fps)}: resample them to one fps")
-        quantizer = Quantizer.fit(np.concatenate([c.features for c in clips], axis=0), dims)
+        # the codes see the set's coded columns only (the StoryBeam set's hand columns are not coded)
+        quantizer = Quantizer.fit(np.concatenate([c.features for c in clips], axis=0), dims,
+                                  get_feature_set(feature_set).code_columns)
         codes = [quantizer.encode(c.features) for c in clips]
         return cls(quantizer, codes, [c.trial for c in clips], [c.label for c in clips], clips[0].fps,
                    feature_set, band, backend, method, [c.features for c in clips] if method == "storybeam" else None,
@@ -350,6 +360,11 @@ class MotionIndex:
         if feats_all is not None and (feats_all.ndim != 2 or len(feats_all) != len(codes_all)
                                       or feats_all.shape[1] != quantizer.pca.mean.shape[0]):
             raise IndexFormatError(f"{npath}: features and codes are inconsistent")
+        width = _feature_width(fset)
+        if feats_all is not None and width and feats_all.shape[1] != width:
+            raise IndexFormatError(f"{npath}: its {fset!r} features have {feats_all.shape[1]} columns, this StoryBeam's "
+                                   f"have {width}: build the index again "
+                                   "(storybeam search --data FOLDER --save-index DIR)")
         codes = [codes_all[offsets[i]:offsets[i + 1]] for i in range(len(trials))]
         feats = None if feats_all is None else [feats_all[offsets[i]:offsets[i + 1]] for i in range(len(trials))]
         try:

@@ -160,11 +160,14 @@ class StoryBeamSearcher:
     @classmethod
     def fit(cls, features: Sequence[np.ndarray], dims: int = DIMS, shortlist: int = SHORTLIST,
             band: int | None = None, backend: str = "auto", mode: str = SHORTLIST_MODE,
-            summary: int = SUMMARY) -> "StoryBeamSearcher":
-        """PCA and quantiser fitted on the library's frames only, then the searcher."""
+            summary: int = SUMMARY, code_columns: int | None = None) -> "StoryBeamSearcher":
+        """PCA and quantiser fitted on the library's frames only, then the searcher;
+        ``code_columns``: the codes see only the features' first that many columns (the
+        feature set's :attr:`~retrieval.features.FeatureSet.coded`), the summary and the
+        re-ranking every column."""
         if not features:
             raise StoryBeamError("storybeam search: no clips to index")
-        quantizer = Quantizer.fit(np.concatenate(list(features), axis=0), dims)
+        quantizer = Quantizer.fit(np.concatenate(list(features), axis=0), dims, code_columns)
         return cls(quantizer, [quantizer.encode(f) for f in features], features, shortlist, band, backend,
                    mode=mode, summary=summary)
 
@@ -223,7 +226,8 @@ class StoryBeamSearcher:
             # On top rather than instead, so no clip the codes shortlist is lost (results.md, issue 31)
             self._identity = StoryBeamSearcher.fit([centre(f) for f in self.features], dims,
                                                    self.shortlist + self.summary, self.band, self.backend,
-                                                   self.mode, summary=self.summary)
+                                                   self.mode, summary=self.summary,
+                                                   code_columns=self.quantizer.columns)
         return self._identity
 
     def find(self, query: np.ndarray, k: int = 1, exclude: int | None = None) -> list[Hit]:

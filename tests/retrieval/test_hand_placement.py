@@ -1,5 +1,6 @@
 """Where the hands are in the body's own frame (issue 31, styles and gestures): the
-"across" / "forward" feature kinds, :func:`body_axes`, and the ``storybeam-hands`` set."""
+"across" / "forward" feature kinds, :func:`body_axes`, and the ``storybeam`` set's hand columns,
+which its codes do not see."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,7 +8,7 @@ import pytest
 
 from retrieval.features import (
     STORYBEAM,
-    STORYBEAM_HANDS,
+    STORYBEAM_NO_HANDS,
     FeatureError,
     FeatureSet,
     FeatureSpec,
@@ -24,15 +25,19 @@ from tests.support.synthetic_motion import make_motion, make_skeleton
 _TURN = ("left_hip", "right_hip", "left_shoulder", "right_shoulder")
 
 
-def test_storybeam_hands_is_storybeam_plus_four_hand_columns():
-    assert get_feature_set("storybeam-hands") is STORYBEAM_HANDS
-    assert STORYBEAM_HANDS.names[: STORYBEAM.dim] == STORYBEAM.names
-    assert STORYBEAM_HANDS.names[STORYBEAM.dim:] == ["lhand_across", "lhand_forward", "rhand_across", "rhand_forward"]
-    assert STORYBEAM.dim == 18  # the default set is unchanged (hands are an ablation)
-    assert heading_weight_of(STORYBEAM_HANDS) == heading_weight_of(STORYBEAM) == 0.5
+def test_storybeam_is_the_set_before_plus_four_uncoded_hand_columns():
+    assert get_feature_set("storybeam-no-hands") is STORYBEAM_NO_HANDS
+    assert STORYBEAM.names[: STORYBEAM_NO_HANDS.dim] == STORYBEAM_NO_HANDS.names
+    assert STORYBEAM.names[STORYBEAM_NO_HANDS.dim:] == ["lhand_across", "lhand_forward", "rhand_across", "rhand_forward"]
+    assert (STORYBEAM_NO_HANDS.dim, STORYBEAM.dim) == (18, 22)
+    # the codes see the 18 columns of the set before; the set without hands codes them all
+    assert (STORYBEAM.coded, STORYBEAM.code_columns) == (18, 18)
+    assert STORYBEAM_NO_HANDS.code_columns is None
+    assert heading_weight_of(STORYBEAM_NO_HANDS) == heading_weight_of(STORYBEAM) == 0.5
     m = make_motion(make_skeleton())
-    assert np.array_equal(motion_features(m, "storybeam-hands")[:, : STORYBEAM.dim], motion_features(m, "storybeam"))
-    assert storybeam_feature_set(hands_weight=0.0).dim == STORYBEAM.dim
+    assert np.array_equal(motion_features(m, "storybeam")[:, : STORYBEAM_NO_HANDS.dim],
+                          motion_features(m, "storybeam-no-hands"))
+    assert storybeam_feature_set(hands_weight=0.0).dim == STORYBEAM_NO_HANDS.dim
 
 
 def _axes(heading_deg: float, frames: int = 5) -> tuple[np.ndarray, np.ndarray]:
@@ -65,23 +70,23 @@ def test_hand_columns_on_the_synthetic_body():
     # set re-poses onto the canonical body, whose shoulders sit elsewhere)
     own_body = storybeam_feature_set(name="storybeam-hands-source", hands_weight=1.0, body="source")
     f = motion_features(make_motion(sk, frames=2, arm_swing=0, knee_bend=0), own_body)
-    names, legs = STORYBEAM_HANDS.names, leg_length(sk)
+    names, legs = STORYBEAM.names, leg_length(sk)
     # the hands hang 18 cm to either side of the spine: left one on the left, right one on the right
     assert f[0, names.index("lhand_across")] == pytest.approx(-0.18 / legs)
     assert f[0, names.index("rhand_across")] == pytest.approx(0.18 / legs)
     assert abs(f[0, names.index("lhand_forward")]) < 1e-9 and abs(f[0, names.index("rhand_forward")]) < 1e-9
     # swinging arms move the hands in front of and behind the chest, in opposition
-    g = motion_features(make_motion(sk, arm_swing=40), "storybeam-hands")
+    g = motion_features(make_motion(sk, arm_swing=40), "storybeam")
     lf, rf = g[:, names.index("lhand_forward")], g[:, names.index("rhand_forward")]
     assert lf.max() > 0.1 and lf.min() < -0.1 and np.corrcoef(lf, rf)[0, 1] < -0.9
 
 
 def test_hand_columns_are_invariant_to_heading_body_size_and_up_axis():
     cols = slice(STORYBEAM.dim, None)
-    base = motion_features(make_motion(make_skeleton(1.0)), "storybeam-hands")[:, cols]
+    base = motion_features(make_motion(make_skeleton(1.0)), "storybeam")[:, cols]
     for other in (make_motion(make_skeleton(0.6)), make_motion(make_skeleton(1.0), heading_deg=70),
                   make_motion(make_skeleton(1.0, up_axis="z"))):
-        assert np.allclose(motion_features(other, "storybeam-hands")[:, cols], base, atol=1e-6)
+        assert np.allclose(motion_features(other, "storybeam")[:, cols], base, atol=1e-6)
 
 
 def test_hand_columns_need_the_frame_rate():

@@ -12,6 +12,7 @@ import pytest
 import retrieval.search.subsequence as subsequence_module
 from retrieval.codes import full_table
 from retrieval.errors import IndexFormatError, StoryBeamError
+from retrieval.features import STORYBEAM
 from retrieval.library import Clip, MotionIndex, choose_clip
 from retrieval.library.index import features_tag
 from retrieval.motion import CANONICAL_POSE_VERSION
@@ -180,8 +181,8 @@ def test_an_index_saved_on_another_body_is_refused(synthetic, tmp_path):
     before (no body recorded: the file's own) would compare a query on one body with a
     library on another, so it is refused with what to do; the demo builds it again."""
     clips, _ = synthetic
-    storybeam_clips = [Clip(c.trial, c.label, np.hstack([c.features, np.zeros((len(c.features), 1))]), None, c.fps)
-                       for c in clips]
+    storybeam_clips = [Clip(c.trial, c.label, np.hstack([c.features, np.zeros((len(c.features), STORYBEAM.dim - 17))]),
+                            None, c.fps) for c in clips]
     folder = MotionIndex.from_clips(storybeam_clips, dims=4, feature_set="storybeam", method="storybeam").save(
         tmp_path / "idx")
     js = folder / "index.json"
@@ -282,3 +283,31 @@ def test_search_command_json_to_stdout_and_subsequence(tmp_path, capsys):
 
     assert main(["search", "--data", str(folder), "--query", str(q), "-k", "0"]) == 1
     assert "at least 1" in capsys.readouterr().err
+
+
+def test_an_index_saved_before_the_hand_columns_is_refused_and_the_codes_skip_them(synthetic, tmp_path):
+    """The "storybeam" set gained four hand-placement columns (issue 31) that its codes do
+    not see: an index saved with the 18 columns before is refused with what to do, and a
+    new one codes the first 18 columns only (the hand columns move no code)."""
+    clips, _ = synthetic
+    rng = np.random.default_rng(3)
+    wide = [Clip(c.trial, c.label, np.hstack([c.features, rng.normal(size=(len(c.features), STORYBEAM.dim - 17))]),
+                 None, c.fps) for c in clips]
+    index = MotionIndex.from_clips(wide, dims=4, feature_set="storybeam", method="storybeam")
+    assert index.quantizer.columns == STORYBEAM.coded == 18
+    moved = [f.copy() for f in (c.features for c in wide)]
+    for f in moved:
+        f[:, 18:] += 5.0  # only the hand columns change
+    assert all(np.array_equal(index.quantizer.encode(f), c) for f, c in zip(moved, index.codes))
+    again = MotionIndex.load(index.save(tmp_path / "new"))
+    assert again.quantizer.columns == 18
+    assert all(np.array_equal(a, b) for a, b in zip(again.codes, index.codes))
+    narrow = [Clip(c.trial, c.label, f[:, :18], None, c.fps) for c, f in zip(wide, (c.features for c in wide))]
+    old = MotionIndex.from_clips(narrow, dims=4, feature_set="storybeam-no-hands", method="storybeam").save(
+        tmp_path / "old")
+    meta = json.loads((old / "index.json").read_text())
+    meta["feature_set"] = "storybeam"  # as an index saved before the hand columns records its set
+    (old / "index.json").write_text(json.dumps(meta))
+    with pytest.raises(IndexFormatError, match="index.npz: its 'storybeam' features have 18 columns, this "
+                                               "StoryBeam's have 22: build the index again"):
+        MotionIndex.load(old)

@@ -15,7 +15,8 @@ from retrieval.search import clip_summary
 from lab.experiment import evaluate, subject_folds
 from lab.experiment.evaluation import EvaluationError
 from retrieval.features import MR17, STORYBEAM, get_feature_set, heading_rate, motion_features
-from retrieval.errors import StoryBeamError
+from retrieval.codes import Quantizer
+from retrieval.errors import QuantizerError, StoryBeamError
 from retrieval.library import (
     Clip,
     MotionIndex,
@@ -43,10 +44,13 @@ def _turning(motion: Motion, degrees_per_second: float) -> Motion:
 
 
 # ------------------------------------------------------------------ the feature set
+#: The turning rate's column (after MR17's 17; the hand columns follow it).
+TURN = STORYBEAM.names.index("heading_rate")
+
 def test_storybeam_set_is_mr17_plus_turning_rate():
     fs = get_feature_set("storybeam")
-    assert fs is STORYBEAM and fs.dim == MR17.dim + 1 and fs.needs_fps and not MR17.needs_fps
-    assert fs.specs[: MR17.dim] == MR17.specs and fs.names[-1] == "heading_rate"
+    assert fs is STORYBEAM and fs.dim == MR17.dim + 5 and fs.needs_fps and not MR17.needs_fps
+    assert fs.specs[: MR17.dim] == MR17.specs and fs.names[TURN] == "heading_rate" and TURN == MR17.dim
     m = make_motion(make_skeleton())
     f = motion_features(m, "storybeam")
     # MR17's pairs on the canonical body (issue 31), bit for bit; not the file's own MR17
@@ -58,11 +62,11 @@ def test_storybeam_set_is_mr17_plus_turning_rate():
 @pytest.mark.parametrize("rate", [-60.0, 45.0])
 def test_heading_rate_measures_a_turn_with_its_sign(rate):
     m = _turning(make_motion(make_skeleton(), frames=120, arm_swing=0, knee_bend=0), rate)
-    turn = motion_features(m, "storybeam")[:, -1] / STORYBEAM.specs[-1].weight
+    turn = motion_features(m, "storybeam")[:, TURN] / STORYBEAM.specs[TURN].weight
     inner = turn[35:-35]  # away from the smoothing's edges (4 σ = 30 frames)
     # positive = counter-clockwise seen from above (a left turn for a Z-forward body)
     np.testing.assert_allclose(inner, np.radians(rate), rtol=1e-3)
-    straight = motion_features(make_motion(make_skeleton(), frames=120), "storybeam")[:, -1]
+    straight = motion_features(make_motion(make_skeleton(), frames=120), "storybeam")[:, TURN]
     assert np.abs(straight).max() < 1e-9
 
 
@@ -77,8 +81,8 @@ def test_heading_rate_is_invariant_to_size_units_up_axis_heading_and_frame_rate(
         np.testing.assert_allclose(motion_features(o, "storybeam"), fb, atol=1e-9)
     # a rate, not a per-frame step: at 60 fps the same turn reads the same rad/s
     fast = _turning(make_motion(make_skeleton(1.0), frames=240, fps=60.0), 40.0)
-    inner = motion_features(fast, "storybeam")[60:-60, -1]
-    np.testing.assert_allclose(inner, fb[35:-35, -1].mean(), rtol=1e-3)
+    inner = motion_features(fast, "storybeam")[60:-60, TURN]
+    np.testing.assert_allclose(inner, fb[35:-35, TURN].mean(), rtol=1e-3)
 
 
 def test_heading_rate_needs_the_frame_rate():
@@ -118,13 +122,13 @@ def test_same_motion_on_two_skeletons_gives_the_same_features(tmp_path):
     a, s, c = feats["adult"], feats["small"], feats["child"]
     assert a.shape == s.shape == c.shape
     np.testing.assert_allclose(s, a, atol=SAME_SHAPE_ATOL)
-    assert np.abs(c - a)[:, :-1].max() < OTHER_SHAPE_ATOL
-    assert np.abs(c - a)[:, :-1].mean() < OTHER_SHAPE_MEAN
-    assert np.abs(c - a)[:, -1].max() < TURN_ATOL
+    assert np.abs(np.delete(c - a, TURN, axis=1)).max() < OTHER_SHAPE_ATOL
+    assert np.abs(np.delete(c - a, TURN, axis=1)).mean() < OTHER_SHAPE_MEAN
+    assert np.abs(c - a)[:, TURN].max() < TURN_ATOL
     # and the source motion on its own (CMU) skeleton agrees with its retargeted copy
     src = clip_from_motion(walk, "src", "", 30.0, "storybeam").features
     n = min(len(src), len(a))  # 50 fps -> 30 fps may drop the last frame
-    assert np.abs(src[:n] - a[:n])[:, -1].max() < TURN_ATOL
+    assert np.abs(src[:n] - a[:n])[:, TURN].max() < TURN_ATOL
 
 
 def test_unmappable_skeleton_is_refused_naming_the_missing_joints():
@@ -410,3 +414,28 @@ def test_seed_methods_can_keep_the_seeds_own_features():
     assert mixed["dtw-storybeam"].predictions == evaluate(clips, ["dtw-storybeam"], folds=3)["dtw-storybeam"].predictions
     with pytest.raises(EvaluationError, match="same clips"):
         evaluate(clips, ["dtw"], folds=3, seed_clips=other[::-1])
+
+
+def test_a_quantizer_on_the_first_columns_ignores_the_rest():
+    """``Quantizer.fit(..., columns=k)``: the same codes as a quantiser fitted on the first
+    k columns alone, whatever the other columns hold; saved and loaded with its columns."""
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(300, 7)) * np.array([3, 2, 1, 1, 0.5, 9, 9])
+    part = Quantizer.fit(x[:, :5], 3)
+    full = Quantizer.fit(x, 3, columns=5)
+    np.testing.assert_array_equal(full.encode(x), part.encode(x[:, :5]))
+    np.testing.assert_allclose(full.ratios, part.ratios)
+    y = x.copy()
+    y[:, 5:] = rng.normal(size=(300, 2)) * 100
+    np.testing.assert_array_equal(full.encode(y), full.encode(x))
+    back = Quantizer.from_arrays(full.to_arrays())
+    assert back.columns == 5 and Quantizer.from_arrays(part.to_arrays()).columns is None
+    np.testing.assert_array_equal(back.encode(y), full.encode(x))
+    with pytest.raises(QuantizerError, match="columns must be 1..7"):
+        Quantizer.fit(x, 3, columns=8)
+    with pytest.raises(QuantizerError, match="n must be 1..2 for 2-D features"):
+        Quantizer.fit(x, 3, columns=2)
+    # the searcher's codes, and find()'s centred ones, follow the columns
+    lib = [x[i * 30:(i + 1) * 30] for i in range(10)]
+    s = StoryBeamSearcher.fit(lib, dims=3, code_columns=5)
+    assert s.quantizer.columns == 5 and s.identity_searcher().quantizer.columns == 5

@@ -8,7 +8,7 @@ import pytest
 
 from retrieval.dtw import dtw_features
 from retrieval.errors import StoryBeamError
-from retrieval.features import motion_features
+from retrieval.features import STORYBEAM, motion_features
 from retrieval.library import SHORTLIST, SUMMARY, MotionIndex, StoryBeamSearcher, clip_summary
 from retrieval.dtw.jit import HAVE_NUMBA
 from retrieval.search.summary import nearest_not_in, summary_gaps, summary_nearest
@@ -22,7 +22,7 @@ def _library(n: int = 24, seed: int = 5) -> list[np.ndarray]:
     return [motion_features(make_motion(sk, frames=int(rng.integers(25, 90)), arm_swing=float(rng.uniform(5, 45)),
                                         knee_bend=float(rng.uniform(5, 35)), bounce=float(rng.uniform(0, 0.05)),
                                         period=float(rng.uniform(0.6, 1.4)), phase=float(rng.uniform(0, 1))),
-                            "storybeam") + rng.normal(scale=0.02, size=(1, 18)) for _ in range(n)]
+                            "storybeam") + rng.normal(scale=0.02, size=(1, STORYBEAM.dim)) for _ in range(n)]
 
 
 def test_clip_summary_is_each_columns_mean_then_its_10_to_90_percentile_range():
