@@ -84,7 +84,7 @@ def register(subparsers) -> None:
                         "queries; the top clip's class (and, with --skeleton-from, trial) -- without "
                         "--skeleton-from the poses come from --data's own files, their trial left out")
     p.add_argument("--shortlist", type=int, default=None,
-                   help="clips the storybeam method re-ranks by exact float DTW (default 4)")
+                   help="clips the storybeam method re-ranks by exact float DTW (default 3)")
     p.add_argument("--summary", type=int, default=None,
                    help="of those, how many come from the clip-summary ranking (per-feature mean and 10-90%% range) "
                         "instead of the codes (default 2; 0 = the code shortlist alone)")

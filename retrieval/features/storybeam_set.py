@@ -23,8 +23,8 @@ of the face, one forward and back, one holds it out to the side. The last four c
 say which. The 2-bit codes see only the first 18 columns (:attr:`FeatureSet.coded`):
 the hand columns vary with each performer's arm swing in a walk, and coded they cost the
 two-actor gait studio 7.6 points leaving one actor out; in the summaries and the exact
-re-ranking they cost it 2.2 and gain the gesture studio 4.8
-(docs/notebook/results.md, "Gestures from another studio").
+re-ranking they cost it 2.2 and gain the gesture studio 4.8 (with the shortlist of 4;
+docs/notebook/results.md, "Gestures from another studio").
 """
 from __future__ import annotations
 
@@ -59,7 +59,7 @@ _TURN_JOINTS = ("left_hip", "right_hip", "left_shoulder", "right_shoulder")
 
 #: Weight of the four hand-placement columns (:func:`hand_specs`; leg lengths, as the
 #: distances); 0 leaves them out. At 1 since issue 31's gesture studio (UTD-MHAD, leave one
-#: performer out: 81.9 -> 86.6 %; docs/notebook/results.md). They enter the exact
+#: performer out: 81.9 -> 86.6 % with the shortlist of 4 then; docs/notebook/results.md). They enter the exact
 #: re-ranking and the clip summaries but not the 2-bit codes (:attr:`FeatureSet.coded`):
 #: coded too, they cost the two-actor gait studio 7.6 points leaving one actor out.
 HANDS_WEIGHT = 1.0

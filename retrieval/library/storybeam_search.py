@@ -2,7 +2,8 @@
 few nearest clips fast, exact DTW on the real-valued features ranks those few.
 
 Method, for a query with features ``q`` (the ``"storybeam"`` feature set: MR17 plus the
-turning rate, :mod:`retrieval.features.storybeam_set`):
+turning rate plus where the hands are, :mod:`retrieval.features.storybeam_set`; the codes
+see its first 18 columns, the summary and the re-ranking all 22):
 
 1. **Shortlist.** PCA (``dims`` components) + the seed's 2-bit quantiser turn ``q`` into
    codes; the fast search (:class:`~retrieval.search.FastSearcher`, the 20 KiB
@@ -10,7 +11,7 @@ turning rate, :mod:`retrieval.features.storybeam_set`):
    library clips nearest by look-up-table DTW (ties by library order), by default in its
    run-length form (``mode="runs"``, :data:`SHORTLIST_MODE`), which costs about a third
    of the exact code search and, measured, shortlists as well for the re-ranking. The
-   other ``summary`` places (:data:`SUMMARY`, 2 of 4) go to the clips nearest by their
+   other ``summary`` places (:data:`SUMMARY`, 2 of 3) go to the clips nearest by their
    **summary** (:func:`clip_summary`: each feature's mean and the range between its 10th
    and 90th percentiles over the clip; Euclidean distance, ties by library order) that the
    codes did not already bring. Why (issue 31): a performer in a style the library has
@@ -22,9 +23,10 @@ turning rate, :mod:`retrieval.features.storybeam_set`):
    a raised one's hold) and survives a change of tempo and timing. It costs the query's
    summary and one (2d)-vector distance per library clip, in one compiled call
    (:mod:`retrieval.search.summary`, the same numbers as numpy's bit for bit); the
-   shortlist keeps its size. The re-ranking costs a little more (the clips the summary
-   brings are ones the early abandoning cannot cut short): in all about 5–9 % more than
-   the code shortlist alone on bandai2 leaving one style out (docs/notebook/results.md).
+   shortlist keeps its size. Measured on one core, every query searched by each
+   configuration in turn: the 3 (1 by codes, 2 by summary) on the 22 columns take
+   0.82–0.94 of the time of the code shortlist of 4 on the 18 columns that the method
+   began with (docs/notebook/results.md, issue 31).
 2. **Re-rank.** Each shortlisted clip's distance is then exact DTW with Euclidean frame
    cost on the float features (:func:`~retrieval.dtw.dtw_features`, normalised by
    ``len(q) + len(r)``) — the same distance as the exact-DTW baseline on the same
@@ -86,9 +88,11 @@ from retrieval.dtw import (
 )
 from retrieval.search import FastSearcher, Hit, clip_summary, summary_nearest
 
-#: Default number of code-nearest clips re-ranked by exact float DTW (the ablation in
-#: docs/notebook/results.md: accuracy against speed).
-SHORTLIST = 4
+#: Default number of clips re-ranked by exact float DTW (the ablations in
+#: docs/notebook/results.md: accuracy against speed). 3 since the four hand columns
+#: (issue 31) made each re-ranking DTW about 15 % dearer: 1 by codes and 2 by summary
+#: answer as well as 2 and 2 did over five studios, at 0.82-0.94 of the time.
+SHORTLIST = 3
 
 #: Default kept PCA components of the shortlist's codes (the seed's n).
 DIMS = 6

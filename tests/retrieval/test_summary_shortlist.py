@@ -41,7 +41,7 @@ def test_clip_summary_is_each_columns_mean_then_its_10_to_90_percentile_range():
         assert clip_summary(f) == pytest.approx(np.concatenate([f.mean(axis=0), hi - lo]), abs=1e-12)
     with pytest.raises(StoryBeamError):
         clip_summary(np.zeros((0, 3)))
-    assert SUMMARY == 2 and SHORTLIST == 4  # the defaults the notebook measures
+    assert SUMMARY == 2 and SHORTLIST == 3  # the defaults the notebook measures
 
 
 @pytest.mark.parametrize("shortlist,summary", [(4, 2), (3, 1), (2, 2), (5, 3)])

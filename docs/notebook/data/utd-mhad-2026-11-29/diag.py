@@ -12,7 +12,7 @@ subs = sorted({c.subject for c in clips})
 stats = []
 for s in subs:
     lib = [c for c in clips if c.subject != s]
-    S = StoryBeamSearcher.fit([c.features for c in lib])
+    S = StoryBeamSearcher.fit([c.features for c in lib], code_columns=__import__("retrieval.features", fromlist=["x"]).get_feature_set(fs).code_columns)
     sums = np.stack([clip_summary(c.features) for c in lib])
     for q in [c for c in clips if c.subject == s and c.label == cls]:
         d = np.array([dtw_features(q.features, c.features) for c in lib])

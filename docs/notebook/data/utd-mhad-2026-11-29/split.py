@@ -1,5 +1,5 @@
 """Scratch: hands columns in the summary and the re-rank only; codes on the base 18 columns."""
-import sys, json
+import sys
 sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[4]))
 import numpy as np
 from retrieval.features import register_feature_set, storybeam_feature_set

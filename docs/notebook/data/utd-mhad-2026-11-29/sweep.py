@@ -1,5 +1,5 @@
 """Scratch: hands weight sweep over the dev studios (storybeam, random+subject)."""
-import json, sys
+import sys
 sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[4]))
 from retrieval.features import register_feature_set, storybeam_feature_set
 from app.cli import build_parser
