@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import csv
 import runpy
-import subprocess
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -15,6 +14,7 @@ import pytest
 
 from retrieval.library import read_labels
 from retrieval.motion import load_motion
+from tests.support.git_snapshot import bare_snapshot
 from tests.support.synthetic_motion import TINY_ASF
 
 REPO = Path(__file__).resolve().parents[2]
@@ -24,9 +24,6 @@ hdm = SimpleNamespace(**runpy.run_path(str(REPO / "scripts" / "hdm05.py")))
 _AMC = b"#!OML:ASF X:\\f\xfcr Bonn\\a.ASF\r\n:FULLY-SPECIFIED\r\n:DEGREES\r\n1\r\nroot 0 17 0 0 0 0\r\na 5\r\n" \
        b"2\r\nroot 0 17 0 0 0 0\r\na 10\r\n"
 
-
-def _git(cwd: Path, *args: str) -> str:
-    return subprocess.run(["git", "-C", str(cwd), *args], check=True, capture_output=True, text=True).stdout.strip()
 
 
 def test_plan_reads_class_and_actor_from_the_file_name():
@@ -48,17 +45,10 @@ def test_plan_refuses_what_it_cannot_place(paths, words):
 
 
 def test_materialise_copies_the_clips_and_writes_labels_the_library_reads(tmp_path):
-    src = tmp_path / "src"
-    (src / "train" / "10").mkdir(parents=True)
-    (src / "train" / "10" / "HDM_dg.asf").write_text(TINY_ASF)
-    (src / "train" / "10" / "HDM_dg_squat1Reps_002_120.amc").write_bytes(_AMC)
-    _git(tmp_path, "init", "-q", str(src))
-    _git(src, "add", ".")
-    _git(src, "-c", "user.email=t@t", "-c", "user.name=t", "commit", "-qm", "x")
-    bare = tmp_path / "repo"
-    subprocess.run(["git", "clone", "-q", "--bare", str(src), str(bare)], check=True)
+    bare, commit = bare_snapshot(tmp_path, {"train/10/HDM_dg.asf": TINY_ASF,
+                                            "train/10/HDM_dg_squat1Reps_002_120.amc": _AMC})
     out = tmp_path / "out"
-    table = hdm.materialise(bare, out, commit=_git(src, "rev-parse", "HEAD"))
+    table = hdm.materialise(bare, out, commit=commit)
     assert [r["label"] for r in table] == ["squat"]
     assert (out / "amc" / "HDM_dg_squat1Reps_002_120.amc").read_bytes() == _AMC  # copied as it is
     with open(out / "labels.csv", newline="") as f:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import csv
 import runpy
-import subprocess
 from io import BytesIO
 from pathlib import Path
 from types import SimpleNamespace
@@ -21,6 +20,7 @@ from scipy.io import savemat
 from retrieval.features import STORYBEAM, motion_features
 from retrieval.library import read_labels
 from retrieval.motion import canonical_joint_map, load_motion, positions
+from tests.support.git_snapshot import bare_snapshot
 
 REPO = Path(__file__).resolve().parents[2]
 utd = SimpleNamespace(**runpy.run_path(str(REPO / "scripts" / "utd_mhad.py")))
@@ -50,9 +50,6 @@ def _mat(xyz: np.ndarray) -> bytes:
     savemat(buf, {"d_skel": np.transpose(xyz, (1, 2, 0))})
     return buf.getvalue()
 
-
-def _git(cwd: Path, *args: str) -> str:
-    return subprocess.run(["git", "-C", str(cwd), *args], check=True, capture_output=True, text=True).stdout.strip()
 
 
 def test_plan_reads_action_subject_and_take_from_the_file_name():
@@ -104,17 +101,10 @@ def test_the_bvh_puts_every_joint_where_the_kinect_did_and_maps_onto_the_canonic
 
 
 def test_materialise_writes_bvh_and_labels_the_library_reads(tmp_path):
-    src = tmp_path / "src"
-    (src / "data" / "Skeleton").mkdir(parents=True)
-    (src / "data" / "Skeleton" / "a3_s2_t1_skeleton.mat").write_bytes(_mat(_wave(45)))
-    (src / "data" / "Skeleton" / "Skeleton_joint_order.txt").write_text("1. head;\n")
-    _git(tmp_path, "init", "-q", str(src))
-    _git(src, "add", ".")
-    _git(src, "-c", "user.email=t@t", "-c", "user.name=t", "commit", "-qm", "x")
-    bare = tmp_path / "repo"
-    subprocess.run(["git", "clone", "-q", "--bare", str(src), str(bare)], check=True)
+    bare, commit = bare_snapshot(tmp_path, {"data/Skeleton/a3_s2_t1_skeleton.mat": _mat(_wave(45)),
+                                            "data/Skeleton/Skeleton_joint_order.txt": "1. head;\n"})
     out = tmp_path / "out"
-    table = utd.materialise(bare, out, commit=_git(src, "rev-parse", "HEAD"))
+    table = utd.materialise(bare, out, commit=commit)
     assert [(r["trial"], r["label"], r["subject"], r["seconds"]) for r in table] == [("a03_s2_t1", "wave", "s2", "1.50")]
     with open(out / "labels.csv", newline="") as f:
         got = list(csv.DictReader(f))
