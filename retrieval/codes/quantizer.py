@@ -111,10 +111,10 @@ class Quantizer:
             raise QuantizerError(f"n must be 1..{min(width, MAX_DIMS)} for {width}-D features, got {n}")
         pca = PCA.fit(x[:, :width])
         if width < x.shape[1]:
-            # the same axes over the full width, with zero weight on the uncoded columns
+            # the same axes over the full width, with zero weight on the uncoded columns (whose
+            # mean then never matters)
             extra = x.shape[1] - width
-            pca = PCA(np.concatenate([pca.mean, x[:, width:].mean(axis=0)]),
-                      np.pad(pca.components, ((0, 0), (0, extra))), pca.variances)
+            pca = PCA(np.pad(pca.mean, (0, extra)), np.pad(pca.components, ((0, 0), (0, extra))), pca.variances)
         a = pca.project(x, n)
         return cls(pca, n, a.mean(axis=0), a.std(axis=0), columns)
 

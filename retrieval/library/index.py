@@ -47,7 +47,7 @@ import numpy as np
 
 from retrieval.codes import DiffTable, Quantizer
 from retrieval.errors import IndexFormatError, StoryBeamError
-from retrieval.features import FeatureError, get_feature_set
+from retrieval.features import FeatureError, FeatureSet, get_feature_set
 from retrieval.library.clip import Clip, Match
 from retrieval.library.dataset import clip_from_motion, load_dataset
 from retrieval.library.storybeam_search import SHORTLIST, SUMMARY, StoryBeamSearcher
@@ -64,17 +64,19 @@ def features_tag(feature_set: str) -> str:
     holds) or ``"canonical-<version>"`` (:func:`~retrieval.motion.canonical_pose`, its
     :data:`~retrieval.motion.body.CANONICAL_POSE_VERSION`). A feature set this StoryBeam
     does not know keeps the saved tag (nothing to compare)."""
-    try:
-        body = get_feature_set(feature_set).body
-    except FeatureError:
+    known = _known_set(feature_set)
+    if known is None:
         return ""
-    return f"canonical-{CANONICAL_POSE_VERSION}" if body == "canonical" else body
-def _feature_width(feature_set: str) -> int:
-    """Columns of a feature set's features (0 for a set this StoryBeam does not know)."""
+    return f"canonical-{CANONICAL_POSE_VERSION}" if known.body == "canonical" else known.body
+
+
+def _known_set(feature_set: str) -> FeatureSet | None:
+    """The registered feature set of that name, None for one this StoryBeam does not know
+    (a saved index then keeps what it recorded: nothing to compare)."""
     try:
-        return get_feature_set(feature_set).dim
+        return get_feature_set(feature_set)
     except FeatureError:
-        return 0
+        return None
 
 
 METHODS = ("storybeam", "quantized")
@@ -360,7 +362,8 @@ class MotionIndex:
         if feats_all is not None and (feats_all.ndim != 2 or len(feats_all) != len(codes_all)
                                       or feats_all.shape[1] != quantizer.pca.mean.shape[0]):
             raise IndexFormatError(f"{npath}: features and codes are inconsistent")
-        width = _feature_width(fset)
+        known = _known_set(fset)
+        width = 0 if known is None else known.dim
         if feats_all is not None and width and feats_all.shape[1] != width:
             raise IndexFormatError(f"{npath}: its {fset!r} features have {feats_all.shape[1]} columns, this StoryBeam's "
                                    f"have {width}: build the index again "
