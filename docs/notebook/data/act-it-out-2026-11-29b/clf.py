@@ -1,17 +1,13 @@
 """Experiment: a discriminative classifier over window descriptors, trained on the act library."""
-import os, sys
-from pathlib import Path
-HERE = Path(__file__).resolve().parent
-REPO = HERE.parents[3]
-# pickles shared by these scripts (clf.py writes lib.pkl, dtw_scores.py dtw.pkl, guard.py guard.pkl)
-OUT = Path(os.environ.get("ACT_CLF_DIR", "/tmp/act-clf")); OUT.mkdir(parents=True, exist_ok=True)
+import sys
+from paths import OUT, REPO
 
 import pickle, time
 import numpy as np
 sys.path.insert(0, str(REPO / "docs/notebook/data/act-it-out-2026-11-28i"))
 import harness as H
 from retrieval.features.frontal import FRONTAL
-CACHE = Path(str(OUT / "lib.pkl"))
+CACHE = OUT / "lib.pkl"
 if CACHE.exists():
     d = pickle.load(open(CACHE, "rb"))
 else:

@@ -1,9 +1,5 @@
-import os, sys
-from pathlib import Path
-HERE = Path(__file__).resolve().parent
-REPO = HERE.parents[3]
-# pickles shared by these scripts (clf.py writes lib.pkl, dtw_scores.py dtw.pkl, guard.py guard.pkl)
-OUT = Path(os.environ.get("ACT_CLF_DIR", "/tmp/act-clf")); OUT.mkdir(parents=True, exist_ok=True)
+import sys
+from paths import OUT, REPO
 
 import pickle
 import numpy as np

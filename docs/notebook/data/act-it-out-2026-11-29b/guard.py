@@ -1,13 +1,13 @@
-import os, sys
+"""The rendered guard's takes (seed 2, 60 trials, person and kid) from the bench's cache
+(GUARD_CACHE, as `storybeam bench act-it-out --seed 2 --limit 60 --variants person,kid --cache DIR`):
+their features, DTW class distances with the trial left out, into guard.pkl."""
+import os
 from pathlib import Path
-HERE = Path(__file__).resolve().parent
-REPO = HERE.parents[3]
-# pickles shared by these scripts (clf.py writes lib.pkl, dtw_scores.py dtw.pkl, guard.py guard.pkl)
-OUT = Path(os.environ.get("ACT_CLF_DIR", "/tmp/act-clf")); OUT.mkdir(parents=True, exist_ok=True)
+from paths import OUT, REPO
+GUARD_CACHE = Path(os.environ.get("GUARD_CACHE", "/work/data/guard/cache"))
 
 import pickle
 import numpy as np
-sys.path.insert(0, str(REPO))
 from lab.bench.act_it_out import choose_trials, perform_and_track, FPS, WIDTH, HEIGHT
 from retrieval.library.dataset import read_labels
 from retrieval.library.act_search import ActSearch
@@ -18,7 +18,7 @@ C = ["walk", "run", "jump", "kick", "dance"]
 out = []
 for v in ["person", "kid"]:
     for r in rows:
-        t = perform_and_track(r, v, 2, Path("/work/data/guard/cache"))
+        t = perform_and_track(r, v, 2, GUARD_CACHE)
         f = s.take_features(t["world"], t["image_xy"], t["valid"], FPS, (WIDTH, HEIGHT))
         m = s.search_features(f, k=60, exclude=[r.trial])
         best = {c: min([x.distance for x in m if x.label == c], default=np.inf) for c in C}

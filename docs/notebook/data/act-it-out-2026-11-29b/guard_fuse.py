@@ -1,13 +1,7 @@
-import os, sys
-from pathlib import Path
-HERE = Path(__file__).resolve().parent
-REPO = HERE.parents[3]
-# pickles shared by these scripts (clf.py writes lib.pkl, dtw_scores.py dtw.pkl, guard.py guard.pkl)
-OUT = Path(os.environ.get("ACT_CLF_DIR", "/tmp/act-clf")); OUT.mkdir(parents=True, exist_ok=True)
+from paths import OUT
 
 import pickle
 import numpy as np
-sys.path.insert(0, str(HERE))
 from clf4 import C, d, desc, fit, names, y
 G = pickle.load(open(str(OUT / "guard.pkl"), "rb"))
 kind = "pct+asym"

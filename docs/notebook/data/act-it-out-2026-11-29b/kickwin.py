@@ -1,8 +1,5 @@
-import os, sys
-from pathlib import Path
-HERE = Path(__file__).resolve().parent
-REPO = HERE.parents[3]
-OUT = Path(os.environ.get("ACT_CLF_DIR", "/tmp/act-clf")); OUT.mkdir(parents=True, exist_ok=True)
+import sys
+from paths import OUT, REPO
 import pickle
 import numpy as np
 sys.path.insert(0, str(REPO / "docs/notebook/data/act-it-out-2026-11-28i"))

@@ -1,11 +1,6 @@
-import os, sys
-from pathlib import Path
-HERE = Path(__file__).resolve().parent
-REPO = HERE.parents[3]
-OUT = Path(os.environ.get("ACT_CLF_DIR", "/tmp/act-clf")); OUT.mkdir(parents=True, exist_ok=True)
+from paths import OUT
 import pickle
 import numpy as np
-sys.path.insert(0, str(HERE))
 from clf4 import C, R, d, desc, fit, names, rep, y
 G = pickle.load(open(str(OUT / "guard.pkl"), "rb"))
 dt = pickle.load(open(str(OUT / "dtw.pkl"), "rb"))
