@@ -43,7 +43,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from retrieval.errors import DatasetError  # noqa: E402
-from retrieval.library.bundle import LABEL_COLUMNS, convert_move  # noqa: E402
+from retrieval.library.bundle import convert_move, write_labels  # noqa: E402
 
 MANIFEST = REPO / "lab" / "datasets" / "act_moves_manifest.csv"
 COLUMNS = ("trial", "label", "subject", "repository", "commit", "path", "skeleton", "keep", "start", "end", "level",
@@ -124,10 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     for repository, (commit, _) in licences.items():
         text = git_show(args.mirror, repository, commit, "LICENSE")
         (args.out / f"LICENSE-{repository.replace('/', '-')}.txt").write_bytes(text)
-    with open(args.out / "labels.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=LABEL_COLUMNS, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(labels)
+    write_labels(args.out / "labels.csv", labels)
     (args.out / "CREDITS.md").write_text(credits(rows), encoding="utf-8")
     if args.sheet:
         contact_sheet([args.out / f"{r['trial']}.bvh" for r in rows], args.sheet)

@@ -25,12 +25,17 @@ shared-data format (``trial,label,subject,file,skeleton,seconds,description,sour
 from __future__ import annotations
 
 import argparse
-import csv
 import re
 import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+from retrieval.library.bundle import write_labels  # noqa: E402
 
 REPOSITORY = "zhangchi8620/JointLearning-HDM05"
 COMMIT = "b252ad65598e052c38f49490c1ac9dbadc283fd3"
@@ -49,7 +54,6 @@ CLASSES: dict[str, tuple[str, str]] = {
     "throwBasketball": ("throw_basketball", "throws a basketball"),
 }
 NAME = re.compile(r"^(?:train|test)/\d+/HDM_(?P<actor>[a-z]{2})_(?P<cls>[A-Za-z0-9]+)_(?P<take>\d+)_120\.amc$")
-HEADER = ("trial", "label", "subject", "file", "skeleton", "seconds", "description", "source")
 AMC_FPS = 120.0
 
 
@@ -113,10 +117,7 @@ def materialise(git_dir: Path, out: Path, commit: str = COMMIT) -> list[dict[str
                       "file": f"amc/{r['trial']}.amc", "skeleton": f"asf/{asf_name}",
                       "seconds": f"{frames_of(amc) / AMC_FPS:.2f}", "description": r["description"],
                       "source": f"{REPOSITORY}@{commit[:12]}:{r['amc']}"})
-    with open(out / "labels.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=HEADER, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(table)
+    write_labels(out / "labels.csv", table)
     return table
 
 

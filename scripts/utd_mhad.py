@@ -37,7 +37,6 @@ performer (s1 ... s8), so ``--split subject`` leaves one performer out.
 from __future__ import annotations
 
 import argparse
-import csv
 import io
 import re
 import subprocess
@@ -51,6 +50,7 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
+from retrieval.library.bundle import write_labels  # noqa: E402
 from retrieval.motion.formats.bvh import save_bvh  # noqa: E402
 from retrieval.motion.model import Joint, Motion, Skeleton  # noqa: E402
 
@@ -88,7 +88,6 @@ CLASSES: dict[int, tuple[str, str]] = {
     27: ("squat", "squats, both arms stretched out"),
 }
 NAME = re.compile(r"^data/Skeleton/a(?P<action>\d+)_s(?P<subject>\d+)_t(?P<take>\d+)_skeleton\.mat$")
-HEADER = ("trial", "label", "subject", "file", "skeleton", "seconds", "description", "source")
 
 #: The Kinect v1 joints in the file's order (Skeleton_joint_order.txt): BVH name and
 #: parent (a Kinect index; -1 for the root).
@@ -204,10 +203,7 @@ def materialise(git_dir: Path, out: Path, commit: str = COMMIT, actions: set[int
                       "source": f"{REPOSITORY}@{commit[:12]}:{r['path']}"})
         if progress is not None:
             progress(i + 1, len(rows))
-    with open(out / "labels.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=HEADER, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(table)
+    write_labels(out / "labels.csv", table)
     return table
 
 

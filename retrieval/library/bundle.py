@@ -222,12 +222,18 @@ def build(data_dir: Path, out_dir: Path, fps: float = 30.0, max_seconds: float =
         raise DatasetError(f"{out_dir / MOVES_FOLDER / 'labels.csv'}: trials also in the CMU selection: "
                            f"{', '.join(clash)}")
     out_rows += moves
-    with open(out_dir / "labels.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=LABEL_COLUMNS, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(out_rows)
+    write_labels(out_dir / "labels.csv", out_rows)
     (out_dir / "CREDITS.md").write_text(_credits(out_rows, fps, max_seconds), encoding="utf-8")
     return out_rows
+
+
+def write_labels(path: Path, rows: list[dict]) -> None:
+    """A labelled folder's ``labels.csv`` (:mod:`retrieval.library.dataset`): a header of
+    :data:`LABEL_COLUMNS`, then ``rows`` (dicts with those keys) in order, UTF-8, ``\\n`` line ends."""
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        writer = csv.DictWriter(fh, fieldnames=LABEL_COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
 
 
 def _credits(rows: list[dict], fps: float, max_seconds: float) -> str:

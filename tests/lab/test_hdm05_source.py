@@ -13,6 +13,7 @@ from types import SimpleNamespace
 import pytest
 
 from retrieval.library import read_labels
+from retrieval.library.bundle import LABEL_COLUMNS
 from retrieval.motion import load_motion
 from tests.support.git_snapshot import bare_snapshot
 from tests.support.synthetic_motion import TINY_ASF
@@ -53,6 +54,6 @@ def test_materialise_copies_the_clips_and_writes_labels_the_library_reads(tmp_pa
     assert (out / "amc" / "HDM_dg_squat1Reps_002_120.amc").read_bytes() == _AMC  # copied as it is
     with open(out / "labels.csv", newline="") as f:
         got = list(csv.DictReader(f))
-    assert list(got[0]) == list(hdm.HEADER) and got[0]["skeleton"] == "asf/HDM_dg.asf" and got[0]["subject"] == "dg"
+    assert list(got[0]) == list(LABEL_COLUMNS) and got[0]["skeleton"] == "asf/HDM_dg.asf" and got[0]["subject"] == "dg"
     row = read_labels(out)[0]
     assert load_motion(row.file, row.skeleton).n_frames == 2  # the Latin-1 comment is read

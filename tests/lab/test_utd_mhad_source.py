@@ -19,6 +19,7 @@ from scipy.io import savemat
 
 from retrieval.features import STORYBEAM, motion_features
 from retrieval.library import read_labels
+from retrieval.library.bundle import LABEL_COLUMNS
 from retrieval.motion import canonical_joint_map, load_motion, positions
 from tests.support.git_snapshot import bare_snapshot
 
@@ -108,7 +109,7 @@ def test_materialise_writes_bvh_and_labels_the_library_reads(tmp_path):
     assert [(r["trial"], r["label"], r["subject"], r["seconds"]) for r in table] == [("a03_s2_t1", "wave", "s2", "1.50")]
     with open(out / "labels.csv", newline="") as f:
         got = list(csv.DictReader(f))
-    assert list(got[0]) == list(utd.HEADER) and got[0]["file"] == "bvh/a03_s2_t1.bvh"
+    assert list(got[0]) == list(LABEL_COLUMNS) and got[0]["file"] == "bvh/a03_s2_t1.bvh"
     row = read_labels(out)[0]
     m = load_motion(row.file)
     assert m.n_frames == 45 and m.fps == pytest.approx(30.0)
